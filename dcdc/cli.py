@@ -1,0 +1,81 @@
+"""The ``dcdc`` command line: a thin layer over the Python API.
+
+Each verb lives next to the code it drives and is imported only when used, so
+``dcdc --help`` stays fast and a verb never pays for another's imports (torch, numba).
+A :class:`~dcdc.errors.DcdcError` becomes one line on stderr and exit status 2.
+"""
+from __future__ import annotations
+
+import importlib
+import sys
+
+import click
+
+from .errors import DcdcError
+
+# verb -> "module:attribute" of a click command or group
+COMMANDS = {
+    "demo": "dcdc.demo:demo_command",
+    "validate-sph": "dcdc.sph.validate:validate_command",
+    "scene": "dcdc.scene.cli:scene_group",
+    "generate": "dcdc.data.generate:generate_command",
+    "dataset": "dcdc.data.cli:dataset_group",
+}
+BENCHMARKS = {
+    "sph": "dcdc.sph.benchmark:benchmark_command",
+    "cconv": "dcdc.model.benchmark:cconv_command",
+    "model": "dcdc.model.benchmark:model_command",
+}
+
+
+class LazyGroup(click.Group):
+    """A click group whose sub-commands are imported on first use."""
+
+    def __init__(self, *args, lazy: dict[str, str] | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.lazy = lazy or {}
+
+    def list_commands(self, ctx):
+        return sorted(set(super().list_commands(ctx)) | set(self.lazy))
+
+    def get_command(self, ctx, name):
+        if name in self.lazy:
+            module, attr = self.lazy[name].split(":")
+            try:
+                return getattr(importlib.import_module(module), attr)
+            except ModuleNotFoundError as e:
+                if e.name and module.startswith(e.name):  # the verb's own module is absent
+                    return None
+                raise
+        return super().get_command(ctx, name)
+
+
+@click.group(cls=LazyGroup, lazy=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="dcdc")
+def cli():
+    """dcdc: learned (density-conditioned CConv) and classical (SPH) multiphase fluids."""
+
+
+@cli.group(cls=LazyGroup, lazy=BENCHMARKS)
+def benchmark():
+    """Measure speed on this machine (tables on stdout, --json for a file)."""
+
+
+def main(argv=None):
+    try:
+        cli.main(args=argv, standalone_mode=False)
+    except DcdcError as e:
+        click.echo(f"error: {e}", err=True)
+        sys.exit(2)
+    except click.exceptions.Abort:
+        click.echo("aborted", err=True)
+        sys.exit(130)
+    except click.ClickException as e:
+        e.show()
+        sys.exit(e.exit_code)
+    except click.exceptions.Exit as e:
+        sys.exit(e.exit_code)
+
+
+if __name__ == "__main__":
+    main()

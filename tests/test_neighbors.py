@@ -1,0 +1,55 @@
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from dcdc.errors import DcdcError
+from dcdc.neighbors import radius_search
+
+
+def _pairs(nb):
+    return set(zip(nb.receivers().tolist(), nb.index.tolist()))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_self_search_matches_kdtree(dim, dtype):
+    rng = np.random.default_rng(dim)
+    x = rng.uniform(-1, 1, (3000, dim)).astype(dtype)
+    r = 0.13 if dim == 2 else 0.3
+    nb = radius_search(x, r, exclude_self=True)
+    tree = cKDTree(x.astype(np.float64))
+    ref = {(i, j) for i, js in enumerate(tree.query_ball_point(x.astype(np.float64), r)) for j in js if i != j}
+    got = _pairs(nb)
+    # float32 boundary cases may differ only for pairs at |d - r| < 1e-6
+    diff = got ^ ref
+    d = [abs(np.linalg.norm(x[i].astype(np.float64) - x[j]) - r) for i, j in diff]
+    assert all(v < 1e-5 for v in d)
+    assert len(got) > 10 * len(x)
+
+
+def test_cross_search_and_self_included():
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0, 1, (500, 3))
+    q = rng.uniform(-0.5, 1.5, (300, 3))
+    nb = radius_search(q, 0.2, points=p)
+    tree = cKDTree(p)
+    ref = {(i, j) for i, js in enumerate(tree.query_ball_point(q, 0.2)) for j in js}
+    assert _pairs(nb) == ref
+    selfnb = radius_search(p, 0.2)
+    assert all((i, i) in _pairs(selfnb) for i in range(len(p)))
+
+
+def test_huge_domain_sparse_points():
+    # two clusters 1 km apart: the grid must not allocate a cell per 0.1 m
+    x = np.array([[0, 0, 0], [0.05, 0, 0], [1000, 0, 0], [1000.05, 0.0, 0]])
+    nb = radius_search(x, 0.1, exclude_self=True)
+    assert _pairs(nb) == {(0, 1), (1, 0), (2, 3), (3, 2)}
+
+
+def test_bad_input():
+    with pytest.raises(DcdcError):
+        radius_search(np.full((3, 3), np.nan), 0.1)
+    with pytest.raises(DcdcError):
+        radius_search(np.zeros((3, 4)), 0.1)
+    with pytest.raises(DcdcError):
+        radius_search(np.zeros((3, 3)), -1.0)
