@@ -24,8 +24,8 @@ def test_scene_translation_keeps_blocks_and_densities():
     scene = ss.scene_json(s, s.meta["container"], 0.1, "IISPH", "box.obj")
     assert [m["density0"] for m in scene["Materials"]] == [10000.0, 1000.0]
     blocks = {b["id"]: b for b in scene["FluidBlocks"]}
-    np.testing.assert_allclose(blocks["heavy"]["start"], [0, 0, 0], atol=1e-12)
-    np.testing.assert_allclose(blocks["light"]["end"], [0.6, 0.3, 0.3], atol=1e-12)
+    np.testing.assert_allclose(blocks["heavy"]["start"], [-0.025] * 3, atol=1e-12)
+    np.testing.assert_allclose(blocks["light"]["end"], [0.625, 0.325, 0.325], atol=1e-12)
     assert scene["Configuration"]["simulationMethod"] == ss.SOLVERS["IISPH"]
 
 

@@ -65,7 +65,10 @@ def scene_json(system: ParticleSystem, container: tuple, duration: float, solver
         raise DcdcError("the SPlisHSPlasH comparison runs 3-D scenes only")
     if solver not in SOLVERS:
         raise DcdcError(f"unknown SPlisHSPlasH solver '{solver}' (choose from {', '.join(SOLVERS)})")
+    # SPlisHSPlasH samples wall particles on the mesh surface; ours sit half a spacing inside
+    # the solid. Grow the box by r so wall particle centres coincide with ours.
     lo, hi = (np.asarray(c, dtype=float) for c in container)
+    lo, hi = lo - system.radius, hi + system.radius
     return {
         "Configuration": {
             "particleRadius": system.radius, "simulationMethod": SOLVERS[solver],
@@ -79,7 +82,10 @@ def scene_json(system: ParticleSystem, container: tuple, duration: float, solver
                       for p in system.phases],
         "RigidBodies": [{"geometryFile": mesh_path, "translation": ((lo + hi) / 2).tolist(),
                          "scale": (hi - lo).tolist(), "isDynamic": False, "isWall": True}],
-        "FluidBlocks": [{"id": name, "denseMode": 0, "start": blo.tolist(), "end": bhi.tolist()}
+        # SPlisHSPlasH's regular block sampling puts L/(2r) - 1 particles along an edge of
+        # length L: grow each block by r per side so it holds as many particles as ours.
+        "FluidBlocks": [{"id": name, "denseMode": 0, "start": (blo - system.radius).tolist(),
+                         "end": (bhi + system.radius).tolist()}
                         for name, blo, bhi in phase_blocks(system)],
     }
 
