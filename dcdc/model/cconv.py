@@ -1,0 +1,573 @@
+"""Continuous convolution (CConv, Ummenhofer et al. 2020; paper eq. 3) in plain PyTorch + numba.
+
+For a receiver i with neighbours j within radius R (self excluded for fluid→fluid)::
+
+    out_i = Σ_j  Σ_c  G_c(Λ((x_j - x_i) / R)) · w(|x_j - x_i|) · f_j @ W_c        (eq. 3)
+
+* Λ is the volume-preserving ball-to-cube mapping (ball → cylinder → cube, Griepentrog et
+  al. 2008, as used by Ummenhofer et al. 2020); in 2-D the area-preserving disk → square map
+  (the cylinder → cube step restricted to the plane).
+* G_c are the trilinear (bilinear in 2-D) interpolation weights of the K^d filter cells
+  (``align_corners``: the outer cell centres lie on the cube's faces), so the filter is
+  g(u) = Σ_c G_c(u) W_c with W_c ∈ R^{C_in × C_out}.
+* w(d) = (1 - d²/R²)³ clamped to [0, 1] is the window; with ``normalize`` the weights are
+  divided by the receiver's window sum Σ_j w(d_ij).
+* Relative coordinates are sender − receiver (Ummenhofer's f(x) = Σ f_i g(Λ(x_i − x)));
+  the paper writes x_i − x_j, which is the same operator with a mirrored filter.
+
+Implementation ("gather, then one GEMM", ../shared/MEASURED.md): the geometry of a step —
+per edge the 2^d corner cells and weights (interpolation × window [/ window sum]) — is
+computed once (:func:`build_geometry`) and shared by every layer on the same point sets.
+A layer then either *spreads* Σ_edges weight·f_j into a per-receiver [cells·C_in] buffer and
+applies one GEMM with the [cells·C_in, C_out] filter, or (when C_out < C_in) multiplies the
+features by the filter first and *collects* per edge. The backward pass reuses the same
+kernels on the edges grouped by sender (the transposed list), applied to grad_out:
+``B = spread_by_sender(grad_out)``, ``grad_f = B @ W'ᵀ``, ``grad_W = fᵀ @ B``. Rows are
+processed in chunks so the buffers stay small and are reused.
+
+Two backends compute the same thing: ``"numba"`` (parallel CPU kernels, default on CPU) and
+``"torch"`` (sparse CSR matrix products, runs on any device incl. CUDA; tested on CPU).
+
+Senders may be *virtual*: the density-conditioned layer (``modulation.py``) feeds one
+modulated feature row per (receiver density, sender) pair or per edge; the geometry then
+carries a remapped ``src`` index (:meth:`ConvGeometry.with_sources`).
+
+Gradients: w.r.t. features and filter weights (and thus everything upstream of the
+features: densities, velocities, MLPs). Positions enter only through the geometry, which
+is treated as constant (as open3d's op does); see docs/model.md.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+import torch
+
+from ..errors import DcdcError
+from ..neighbors import Neighbors, radius_search
+
+CHUNK_BYTES = 8 << 20  # working-buffer size per chunk of rows (fits the L2/L3 caches well)
+
+
+# --------------------------------------------------------------------------- geometry kernels
+@nb.njit(cache=True, inline="always")
+def _ball_to_cube3(x, y, z):
+    """Volume-preserving unit ball → cube [-1, 1]³ (ball → cylinder → cube)."""
+    sq = x * x + y * y + z * z
+    if sq < 1e-12:
+        return 0.0, 0.0, 0.0
+    norm = math.sqrt(sq)
+    if 1.25 * z * z > x * x + y * y:
+        s = math.sqrt(3.0 * norm / (norm + abs(z)))
+        x *= s
+        y *= s
+        z = math.copysign(norm, z)
+    else:
+        s = norm / math.sqrt(x * x + y * y)
+        x *= s
+        y *= s
+        z *= 1.5
+    x, y = _disk_to_square(x, y)
+    return x, y, z
+
+
+@nb.njit(cache=True, inline="always")
+def _disk_to_square(x, y):
+    """Area-preserving unit disk → square [-1, 1]² (the cylinder → cube step)."""
+    sq = x * x + y * y
+    if sq < 1e-12:
+        return 0.0, 0.0
+    norm = math.sqrt(sq)
+    if abs(y) <= abs(x):
+        t = math.copysign(norm, x)
+        return t, t * (4.0 / math.pi) * math.atan(y / x)
+    t = math.copysign(norm, y)
+    return t * (4.0 / math.pi) * math.atan(x / y), t
+
+
+@nb.njit(cache=True, parallel=True)
+def _geometry_kernel(rx, sx, row_splits, index, inv_r, K, use_window, normalize, cells, weights):
+    n = rx.shape[0]
+    d = rx.shape[1]
+    scale = 0.5 * (K - 1)
+    for i in nb.prange(n):
+        e0 = row_splits[i]
+        e1 = row_splits[i + 1]
+        wsum = 0.0
+        for e in range(e0, e1):
+            j = index[e]
+            px = (sx[j, 0] - rx[i, 0]) * inv_r
+            py = (sx[j, 1] - rx[i, 1]) * inv_r
+            pz = 0.0
+            if d == 3:
+                pz = (sx[j, 2] - rx[i, 2]) * inv_r
+            r2 = px * px + py * py + pz * pz
+            win = 1.0
+            if use_window:
+                win = 1.0 - r2
+                win = win * win * win
+                win = min(max(win, 0.0), 1.0)
+            wsum += win
+            if d == 3:
+                ux, uy, uz = _ball_to_cube3(px, py, pz)
+            else:
+                ux, uy = _disk_to_square(px, py)
+                uz = 0.0
+            # cube [-1, 1] -> filter coordinates [0, K-1] (align_corners)
+            u0 = (ux + 1.0) * scale
+            u1 = (uy + 1.0) * scale
+            u2 = (uz + 1.0) * scale
+            i0 = min(max(int(math.floor(u0)), 0), K - 2)
+            i1 = min(max(int(math.floor(u1)), 0), K - 2)
+            i2 = min(max(int(math.floor(u2)), 0), K - 2)
+            t0 = min(max(u0 - i0, 0.0), 1.0)
+            t1 = min(max(u1 - i1, 0.0), 1.0)
+            t2 = min(max(u2 - i2, 0.0), 1.0)
+            ncorner = 8 if d == 3 else 4
+            for k in range(ncorner):
+                b0 = k & 1
+                b1 = (k >> 1) & 1
+                b2 = (k >> 2) & 1
+                wk = (t0 if b0 else 1.0 - t0) * (t1 if b1 else 1.0 - t1)
+                c = (i0 + b0) + K * (i1 + b1)
+                if d == 3:
+                    wk *= t2 if b2 else 1.0 - t2
+                    c += K * K * (i2 + b2)
+                cells[e, k] = c
+                weights[e, k] = wk * win
+        if normalize and wsum > 0.0:
+            inv = 1.0 / wsum
+            for e in range(e0, e1):
+                for k in range(weights.shape[1]):
+                    weights[e, k] *= inv
+
+
+@nb.njit(cache=True)
+def _transpose_kernel(row_splits, src, n_virtual):
+    """Group the edges by (virtual) sender: CSR splits, edge permutation, receiver per edge."""
+    n_edges = src.shape[0]
+    splits = np.zeros(n_virtual + 1, dtype=np.int64)
+    for e in range(n_edges):
+        splits[src[e] + 1] += 1
+    for v in range(n_virtual):
+        splits[v + 1] += splits[v]
+    fill = splits[:-1].copy()
+    perm = np.empty(n_edges, dtype=np.int64)
+    dst = np.empty(n_edges, dtype=np.int32)
+    for i in range(row_splits.shape[0] - 1):
+        for e in range(row_splits[i], row_splits[i + 1]):
+            p = fill[src[e]]
+            perm[p] = e
+            dst[p] = i
+            fill[src[e]] += 1
+    return splits, perm, dst
+
+
+# --------------------------------------------------------------------------- aggregation kernels
+@nb.njit(cache=True, parallel=True)
+def _spread(row_splits, src, cells, w, F, r0, r1, out):
+    """out[i - r0, c·C:(c+1)·C] = Σ_{edges e of row i, corners k with cell c} w[e,k]·F[src[e]]."""
+    C = F.shape[1]
+    nk = cells.shape[1]
+    for ii in nb.prange(r1 - r0):
+        i = r0 + ii
+        row = out[ii]
+        row[:] = 0.0
+        for e in range(row_splits[i], row_splits[i + 1]):
+            j = src[e]
+            for k in range(nk):
+                base = cells[e, k] * C
+                wk = w[e, k]
+                for c in range(C):
+                    row[base + c] += wk * F[j, c]
+
+
+@nb.njit(cache=True, parallel=True)
+def _collect(row_splits, src, cells, w, H, out):
+    """out[i] = Σ_{edges e of row i, corners k} w[e,k]·H[src[e], cells[e,k]·C : +C]."""
+    C = out.shape[1]
+    nk = cells.shape[1]
+    for i in nb.prange(out.shape[0]):
+        row = out[i]
+        row[:] = 0.0
+        for e in range(row_splits[i], row_splits[i + 1]):
+            j = src[e]
+            for k in range(nk):
+                base = cells[e, k] * C
+                wk = w[e, k]
+                for c in range(C):
+                    row[c] += wk * H[j, base + c]
+
+
+@nb.njit(cache=True, parallel=True)
+def _collect_edges(row_splits, src, cells, w, dA, r0, r1, out):
+    """out[src[e]] = Σ_k w[e,k]·dA[i - r0, cells[e,k]·C : +C] for the edges of rows r0..r1.
+
+    Only valid when ``src`` is injective (one edge per virtual sender: the per-edge path)."""
+    C = out.shape[1]
+    nk = cells.shape[1]
+    for ii in nb.prange(r1 - r0):
+        i = r0 + ii
+        for e in range(row_splits[i], row_splits[i + 1]):
+            j = src[e]
+            for c in range(C):
+                out[j, c] = 0.0
+            for k in range(nk):
+                base = cells[e, k] * C
+                wk = w[e, k]
+                for c in range(C):
+                    out[j, c] += wk * dA[ii, base + c]
+
+
+# --------------------------------------------------------------------------- geometry object
+@dataclass
+class ConvGeometry:
+    """Everything a CConv layer needs about one (receivers, senders) pair at one step.
+
+    ``row_splits``/``src``/``cells``/``weights`` list the edges grouped by receiver; ``src``
+    is the sender (or virtual sender) row of the feature matrix. The sender-grouped
+    (transposed) order is built lazily for the backward pass.
+    """
+
+    n_recv: int
+    n_send: int  # rows of the feature matrix the layer receives (virtual senders)
+    dim: int
+    kernel_size: int
+    row_splits: np.ndarray  # int64 [n_recv + 1]
+    src: np.ndarray  # int32 [E]
+    cells: np.ndarray  # int32 [E, 2^d]
+    weights: np.ndarray  # float64 [E, 2^d]
+    sender: np.ndarray  # int32 [E]: the real sender particle of each edge
+    injective: bool = False  # every virtual sender has exactly one edge (per-edge features)
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_edges(self) -> int:
+        return int(self.row_splits[-1])
+
+    @property
+    def n_cells(self) -> int:
+        return self.kernel_size ** self.dim
+
+    def receivers(self) -> np.ndarray:
+        return np.repeat(np.arange(self.n_recv, dtype=np.int32), np.diff(self.row_splits))
+
+    def weights_as(self, dtype: torch.dtype) -> np.ndarray:
+        key = ("w", dtype)
+        if key not in self._cache:
+            npdt = torch.empty(0, dtype=dtype).numpy().dtype
+            self._cache[key] = np.ascontiguousarray(self.weights, dtype=npdt)
+        return self._cache[key]
+
+    def transposed(self, dtype: torch.dtype):
+        """Edges grouped by virtual sender: (splits, receiver per edge, cells, weights)."""
+        key = ("t", dtype)
+        if key not in self._cache:
+            if "perm" not in self._cache:
+                self._cache["perm"] = _transpose_kernel(self.row_splits, self.src, self.n_send)
+            splits, perm, dst = self._cache["perm"]
+            self._cache[key] = (splits, dst, np.ascontiguousarray(self.cells[perm]),
+                                np.ascontiguousarray(self.weights_as(dtype)[perm]))
+        return self._cache[key]
+
+    def with_sources(self, src: np.ndarray, n_send: int, injective: bool = False) -> "ConvGeometry":
+        """The same edges reading their feature rows from ``src`` (virtual senders)."""
+        g = ConvGeometry(self.n_recv, int(n_send), self.dim, self.kernel_size, self.row_splits,
+                         np.ascontiguousarray(src, dtype=np.int32), self.cells, self.weights,
+                         self.sender, injective)
+        for key, val in self._cache.items():  # weights in other dtypes are the same
+            if key[0] == "w":
+                g._cache[key] = val
+        return g
+
+
+def build_geometry(recv_x, send_x=None, radius: float = 0.1125, kernel_size: int = 4,
+                   exclude_self: bool | None = None, normalize: bool = False, window: bool = True,
+                   neighbors: Neighbors | None = None) -> ConvGeometry:
+    """Neighbour search + per-edge corner cells and weights for receivers ``recv_x``.
+
+    Args:
+        recv_x: [N, d] receiver positions (numpy or torch; detached).
+        send_x: [M, d] sender positions; ``None`` = the receivers themselves.
+        radius: CConv radius R (DESIGN §2: 4.5 r).
+        kernel_size: K, the filter has K^d cells.
+        exclude_self: leave out (i, i); default True for a self-convolution.
+        normalize: divide the weights by each receiver's window sum.
+        window: apply w(d) = (1 - d²/R²)³.
+        neighbors: a precomputed :class:`Neighbors` list (skips the search).
+    """
+    rx = _as_numpy(recv_x)
+    same = send_x is None
+    sx = rx if same else _as_numpy(send_x)
+    dim = rx.shape[1]
+    if dim not in (2, 3) or sx.shape[1] != dim:
+        raise DcdcError(f"CConv needs [N, 2|3] positions, got {rx.shape} and {sx.shape}")
+    if kernel_size < 2:
+        raise DcdcError(f"kernel_size must be >= 2 (got {kernel_size})")
+    if exclude_self is None:
+        exclude_self = same
+    if neighbors is None:
+        neighbors = radius_search(rx, radius, None if same else sx, exclude_self=exclude_self)
+    n_edges = neighbors.n_edges
+    nk = 2 ** dim
+    cells = np.empty((n_edges, nk), dtype=np.int32)
+    weights = np.empty((n_edges, nk), dtype=np.float64)
+    if n_edges:
+        _geometry_kernel(rx, sx, neighbors.row_splits, neighbors.index, 1.0 / float(radius),
+                         int(kernel_size), bool(window), bool(normalize), cells, weights)
+    index = np.ascontiguousarray(neighbors.index, dtype=np.int32)
+    return ConvGeometry(len(rx), len(sx), dim, int(kernel_size), neighbors.row_splits, index,
+                        cells, weights, index)
+
+
+def _as_numpy(x) -> np.ndarray:
+    if isinstance(x, torch.Tensor):
+        x = x.detach().cpu().numpy()
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------- numba backend
+def _rows_per_chunk(width: int, itemsize: int) -> int:
+    return max(32, CHUNK_BYTES // max(1, width * itemsize))
+
+
+def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dtype=None):
+    """Forward pass; F [V, Cin], W [cells, Cin, Cout] -> [R, Cout]."""
+    ncell, cin, cout = W.shape
+    R, V = geom.n_recv, geom.n_send
+    w = geom.weights_as(F.dtype)
+    Fn = F.detach().contiguous().numpy()
+    out = torch.empty(R, cout, dtype=F.dtype)
+    if R == 0:
+        return out
+    if cout * V < cin * R:  # collect: filter first, intermediate [V, cells·Cout]
+        W2 = W.detach().permute(1, 0, 2).reshape(cin, ncell * cout)
+        H = _mm(F.detach(), W2, gemm_dtype).contiguous()
+        _collect(geom.row_splits, geom.src, geom.cells, w, H.numpy(), out.numpy())
+        return out
+    # spread: gather per receiver, then one GEMM per chunk of rows
+    Wf = W.detach().reshape(ncell * cin, cout)
+    if gemm_dtype is not None:
+        Wf = Wf.to(gemm_dtype)
+    rows = min(R, _rows_per_chunk(ncell * cin, F.element_size()))
+    buf = torch.empty(rows, ncell * cin, dtype=F.dtype)
+    bufn = buf.numpy()
+    for r0 in range(0, R, rows):
+        r1 = min(R, r0 + rows)
+        _spread(geom.row_splits, geom.src, geom.cells, w, Fn, r0, r1, bufn)
+        A = buf[: r1 - r0]
+        if gemm_dtype is None:
+            torch.mm(A, Wf, out=out[r0:r1])
+        else:
+            out[r0:r1] = torch.mm(A.to(gemm_dtype), Wf).to(F.dtype)
+    return out
+
+
+def _mm(a, b, gemm_dtype):
+    if gemm_dtype is None:
+        return a @ b
+    return (a.to(gemm_dtype) @ b.to(gemm_dtype)).to(a.dtype)
+
+
+def _backward_numba(F, W, gout, geom: ConvGeometry, need_f: bool, need_w: bool):
+    ncell, cin, cout = W.shape
+    R, V = geom.n_recv, geom.n_send
+    gout = gout.contiguous()
+    gF = torch.zeros(V, cin, dtype=F.dtype) if need_f else None
+    if geom.injective:
+        # receiver side: A = spread(F) (recomputed), gW = Aᵀ g, dA = g Wᵀ, gF[e] = collect(dA)
+        w = geom.weights_as(F.dtype)
+        Fn = F.detach().contiguous().numpy()
+        Wf = W.detach().reshape(ncell * cin, cout)
+        gWf = torch.zeros(ncell * cin, cout, dtype=F.dtype) if need_w else None
+        rows = min(max(R, 1), _rows_per_chunk(ncell * cin, F.element_size()))
+        buf = torch.empty(rows, ncell * cin, dtype=F.dtype)
+        for r0 in range(0, R, rows):
+            r1 = min(R, r0 + rows)
+            g = gout[r0:r1]
+            if need_w:
+                _spread(geom.row_splits, geom.src, geom.cells, w, Fn, r0, r1, buf.numpy())
+                gWf.addmm_(buf[: r1 - r0].t(), g)
+            if need_f:
+                dA = (g @ Wf.t()).contiguous()
+                _collect_edges(geom.row_splits, geom.src, geom.cells, w, dA.numpy(), r0, r1,
+                               gF.numpy())
+        return gF, (gWf.reshape(ncell, cin, cout) if need_w else None)
+    # sender side: B = spread_by_sender(g) [V, cells·Cout]; gF = B W'ᵀ; gW' = Fᵀ B
+    splits, dst, tcells, tw = geom.transposed(F.dtype)
+    W2 = W.detach().permute(1, 0, 2).reshape(cin, ncell * cout)
+    gW2 = torch.zeros(cin, ncell * cout, dtype=F.dtype) if need_w else None
+    gn = gout.numpy()
+    Fd = F.detach()
+    rows = min(max(V, 1), _rows_per_chunk(ncell * cout, F.element_size()))
+    buf = torch.empty(rows, ncell * cout, dtype=F.dtype)
+    for v0 in range(0, V, rows):
+        v1 = min(V, v0 + rows)
+        _spread(splits, dst, tcells, tw, gn, v0, v1, buf.numpy())
+        B = buf[: v1 - v0]
+        if need_f:
+            torch.mm(B, W2.t(), out=gF[v0:v1])
+        if need_w:
+            gW2.addmm_(Fd[v0:v1].t(), B)
+    gW = gW2.reshape(cin, ncell, cout).permute(1, 0, 2) if need_w else None
+    return gF, gW
+
+
+class _NumbaCConv(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, F, W, geom, gemm_dtype):
+        ctx.save_for_backward(F, W)
+        ctx.geom = geom
+        return _forward_numba(F, W, geom, gemm_dtype)
+
+    @staticmethod
+    def backward(ctx, gout):
+        F, W = ctx.saved_tensors
+        gF, gW = _backward_numba(F, W, gout, ctx.geom, ctx.needs_input_grad[0],
+                                 ctx.needs_input_grad[1])
+        return gF, gW, None, None
+
+
+# --------------------------------------------------------------------------- torch backend
+def _sparse_matrices(geom: ConvGeometry, dtype, device):
+    """M [R·cells, V] with M[i·cells + c, src] = Σ weights, and its transpose (both CSR)."""
+    key = ("sparse", dtype, str(device))
+    if key not in geom._cache:
+        nk = geom.cells.shape[1]
+        recv = np.repeat(geom.receivers().astype(np.int64), nk)
+        rows = recv * geom.n_cells + geom.cells.reshape(-1)
+        cols = np.repeat(geom.src.astype(np.int64), nk)
+        idx = torch.from_numpy(np.stack([rows, cols])).to(device)
+        val = torch.from_numpy(geom.weights.reshape(-1)).to(device=device, dtype=dtype)
+        shape = (geom.n_recv * geom.n_cells, geom.n_send)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "sparse CSR support is in beta"
+            M = torch.sparse_coo_tensor(idx, val, shape, check_invariants=False).coalesce()
+            Mt = torch.sparse_coo_tensor(idx.flip(0), val, shape[::-1],
+                                         check_invariants=False).coalesce()
+            geom._cache[key] = (M.to_sparse_csr(), Mt.to_sparse_csr())
+    return geom._cache[key]
+
+
+class _TorchCConv(torch.autograd.Function):
+    """out = (M F).view(R, cells·Cin) @ W; pure torch sparse-dense products (any device)."""
+
+    @staticmethod
+    def forward(ctx, F, W, geom):
+        ncell, cin, cout = W.shape
+        M, Mt = _sparse_matrices(geom, F.dtype, F.device)
+        A = (M @ F).reshape(geom.n_recv, ncell * cin)
+        ctx.save_for_backward(F, W)
+        ctx.geom = geom
+        return A @ W.reshape(ncell * cin, cout)
+
+    @staticmethod
+    def backward(ctx, gout):
+        F, W = ctx.saved_tensors
+        ncell, cin, cout = W.shape
+        M, Mt = _sparse_matrices(ctx.geom, F.dtype, F.device)
+        gF = gW = None
+        if ctx.needs_input_grad[1]:
+            A = (M @ F).reshape(ctx.geom.n_recv, ncell * cin)
+            gW = (A.t() @ gout).reshape(ncell, cin, cout)
+        if ctx.needs_input_grad[0]:
+            dA = (gout @ W.reshape(ncell * cin, cout).t()).reshape(-1, cin)
+            gF = Mt @ dA
+        return gF, gW, None
+
+
+# --------------------------------------------------------------------------- public op
+def cconv(features: torch.Tensor, weight: torch.Tensor, geom: ConvGeometry,
+          backend: str = "auto", gemm_dtype: torch.dtype | None = None) -> torch.Tensor:
+    """Continuous convolution (eq. 3 without modulation): [V, Cin] → [R, Cout].
+
+    Args:
+        features: [geom.n_send, Cin] sender (or virtual sender) features.
+        weight: [K^d, Cin, Cout] filter, cell index x-fastest (c = x + K·y + K²·z).
+        geom: from :func:`build_geometry` (possibly ``with_sources``).
+        backend: "numba" (CPU), "torch" (any device) or "auto" (numba on CPU).
+        gemm_dtype: e.g. ``torch.bfloat16`` to run the GEMMs in bf16 (AMX) — inference only.
+    """
+    if features.shape[0] != geom.n_send:
+        raise DcdcError(f"cconv: {features.shape[0]} feature rows for {geom.n_send} senders")
+    if weight.shape[0] != geom.n_cells or weight.shape[1] != features.shape[1]:
+        raise DcdcError(f"cconv: filter {tuple(weight.shape)} does not fit {geom.n_cells} cells "
+                        f"× {features.shape[1]} channels")
+    if backend == "auto":
+        backend = "numba" if features.device.type == "cpu" else "torch"
+    if backend == "numba":
+        if gemm_dtype is not None and torch.is_grad_enabled() and (
+                features.requires_grad or weight.requires_grad):
+            gemm_dtype = None  # reduced-precision GEMMs are for inference only
+        return _NumbaCConv.apply(features, weight, geom, gemm_dtype)
+    if backend == "torch":
+        return _TorchCConv.apply(features, weight, geom)
+    raise DcdcError(f"unknown CConv backend {backend!r} (numba, torch, auto)")
+
+
+# --------------------------------------------------------------------------- slow reference
+def _ref_ball_to_cube(p):
+    """Scalar re-statement of Λ (pure Python) for the reference implementation."""
+    if len(p) == 2:
+        x, y = p
+        r = math.hypot(x, y)
+        if r < 1e-6:
+            return [0.0, 0.0]
+        if abs(y) <= abs(x):
+            return [math.copysign(r, x), math.copysign(r, x) * 4 / math.pi * math.atan(y / x)]
+        return [math.copysign(r, y) * 4 / math.pi * math.atan(x / y), math.copysign(r, y)]
+    x, y, z = p
+    r = math.sqrt(x * x + y * y + z * z)
+    if r < 1e-6:
+        return [0.0, 0.0, 0.0]
+    if 5 / 4 * z * z > x * x + y * y:  # polar caps of the ball -> end caps of the cylinder
+        s = math.sqrt(3 * r / (r + abs(z)))
+        cx, cy, cz = x * s, y * s, math.copysign(r, z)
+    else:  # equatorial band -> mantle
+        s = r / math.hypot(x, y)
+        cx, cy, cz = x * s, y * s, 1.5 * z
+    return _ref_ball_to_cube([cx, cy]) + [cz]
+
+
+def reference_cconv(recv_x, send_x, features, weight, radius, exclude_self=True,
+                    normalize=False, edge_features=None):
+    """Slow per-edge CConv (brute-force neighbours, Python loops) for tests.
+
+    ``edge_features(i, j)`` (optional) returns the feature vector used for edge (i, j),
+    e.g. a density-modulated Γ_ij; default ``features[j]``.
+    """
+    rx = np.asarray(recv_x, dtype=np.float64)
+    sx = np.asarray(send_x, dtype=np.float64)
+    F = np.asarray(features, dtype=np.float64)
+    W = np.asarray(weight, dtype=np.float64)
+    ncell, cin, cout = W.shape
+    d = rx.shape[1]
+    K = round(ncell ** (1 / d))
+    out = np.zeros((len(rx), cout))
+    for i in range(len(rx)):
+        acc = np.zeros(cout)
+        wsum = 0.0
+        for j in range(len(sx)):
+            if exclude_self and j == i:
+                continue
+            rel = (sx[j] - rx[i]) / radius
+            r2 = float(rel @ rel)
+            if r2 > 1.0:
+                continue
+            win = min(max((1 - r2) ** 3, 0.0), 1.0)
+            wsum += win
+            u = [(c + 1) / 2 * (K - 1) for c in _ref_ball_to_cube(list(rel))]
+            lo = [min(max(int(math.floor(a)), 0), K - 2) for a in u]
+            t = [a - b for a, b in zip(u, lo)]
+            f = F[j] if edge_features is None else np.asarray(edge_features(i, j))
+            g = np.zeros(cout)
+            for corner in np.ndindex(*([2] * d)):
+                wk = np.prod([tk if bk else 1 - tk for tk, bk in zip(t, corner)])
+                cell = sum((lo[a] + corner[a]) * K ** a for a in range(d))
+                g += wk * (f @ W[cell])
+            acc += win * g
+        out[i] = acc / wsum if (normalize and wsum > 0) else acc
+    return out
