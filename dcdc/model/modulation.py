@@ -27,8 +27,6 @@ Both give the same result up to summation order (tested).
 """
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 import torch
@@ -58,8 +56,8 @@ class DensityEmbedding(nn.Module):
         return self.phi(torch.log1p(rho / self.rho_ref).unsqueeze(-1))
 
     def reference(self, like: torch.Tensor) -> torch.Tensor:
-        """e_ref = φ(log 2), the embedding of ρ_ref."""
-        return self.phi(torch.full((1, 1), math.log(2.0), dtype=like.dtype, device=like.device))
+        """e_ref = φ(log 2), the embedding of ρ_ref (same code path as :meth:`forward`)."""
+        return self(torch.full((1,), self.rho_ref, dtype=like.dtype, device=like.device))
 
 
 class PairModulation(nn.Module):

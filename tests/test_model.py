@@ -1,0 +1,278 @@
+"""Density modulation, networks, integrator and checkpoints."""
+import argparse
+
+import numpy as np
+import pytest
+import torch
+
+from dcdc.errors import DcdcError
+from dcdc.model.cconv import build_geometry, reference_cconv
+from dcdc.model.checkpoint import FORMAT, load_checkpoint, save_checkpoint
+from dcdc.model.integrator import inertial, rollout, step
+from dcdc.model.layers import CConvLayer, DensityCConvLayer
+from dcdc.model.modulation import DensityEmbedding, DensityPlan
+from dcdc.model.networks import NETWORKS, CorrectionNet, build_network
+
+R = 0.1125
+SMALL = dict(channels=[8, 12, 12])
+
+
+def _block(dim, n_side=6, seed=0, jitter=0.005):
+    rng = np.random.default_rng(seed)
+    g = np.arange(n_side) * 0.05
+    x = np.stack(np.meshgrid(*[g] * dim, indexing="ij"), -1).reshape(-1, dim)
+    return x + rng.uniform(-jitter, jitter, x.shape)
+
+
+def _scene(dim, n_side=6, seed=0):
+    x = _block(dim, n_side, seed)
+    rng = np.random.default_rng(seed + 1)
+    v = rng.normal(size=x.shape)
+    rho = np.where(x[:, 1] > x[:, 1].mean(), 500.0, 2000.0)
+    rho[::7] = 1000.0
+    m = 40
+    wx = rng.uniform(0, 0.05 * n_side, (m, dim))
+    wx[:, 1] = -0.05
+    wn = np.zeros((m, dim))
+    wn[:, 1] = 1.0
+    return x, v, rho, wx, wn
+
+
+def _net(name, dim, **kw):
+    torch.manual_seed(0)
+    return build_network(name, dim, **{**SMALL, **kw}).double()
+
+
+def _perturb_modulation(net):
+    """Random modulation weights, so γ, β are far from constant."""
+    g = torch.Generator().manual_seed(1)
+    with torch.no_grad():
+        for n, p in net.named_parameters():
+            if "modulation" in n or "embedding" in n:
+                p.copy_(torch.randn(p.shape, generator=g, dtype=p.dtype))
+    return net
+
+
+# ---------------------------------------------------------------------- modulation
+@pytest.mark.parametrize("dim", [2, 3])
+def test_modulated_layer_matches_reference(dim):
+    x, _, rho, _, _ = _scene(dim, 4 if dim == 3 else 7)
+    n = len(x)
+    torch.manual_seed(0)
+    layer = DensityCConvLayer(3, 4, dim).double()
+    emb = DensityEmbedding().double()
+    _perturb_modulation(torch.nn.ModuleDict({"modulation": layer.modulation, "embedding": emb}))
+    F = torch.randn(n, 3, dtype=torch.float64)
+    geom = build_geometry(x, radius=R)
+    rho_t = torch.tensor(rho)
+    e = emb(rho_t)
+    eref = emb.reference(F)
+    gam, bet = layer.modulation(e[:, None], e[None, :], eref)  # [N, N, C], brute force
+
+    def edge(i, j):
+        return (gam[i, j] * F[j] + bet[i, j]).detach().numpy()
+
+    ref = reference_cconv(x, x, F.numpy(), layer.weight.detach().numpy(), R,
+                          edge_features=edge) + layer.bias.detach().numpy()
+    for mode in ("classes", "edges"):
+        out = layer(F, geom, DensityPlan(geom, rho, mode), emb)
+        np.testing.assert_allclose(out.detach().numpy(), ref, rtol=1e-5, atol=1e-9)
+
+
+def test_identity_at_reference_density():
+    """eq. 7: γ = 1 and β = 0 at ρ_i = ρ_j = ρ_ref for any weights, so Γ = I."""
+    x, _, _, _, _ = _scene(3, 4)
+    n = len(x)
+    torch.manual_seed(0)
+    layer = DensityCConvLayer(5, 6, 3).double()
+    emb = DensityEmbedding().double()
+    _perturb_modulation(torch.nn.ModuleDict({"modulation": layer.modulation, "embedding": emb}))
+    e = emb(torch.full((3,), 1000.0, dtype=torch.float64))
+    gam, bet = layer.modulation(e, e, emb.reference(e))
+    torch.testing.assert_close(gam, torch.ones_like(gam), rtol=0, atol=1e-13)
+    torch.testing.assert_close(bet, torch.zeros_like(bet), rtol=0, atol=1e-13)
+    plain = CConvLayer(5, 6, 3).double()
+    plain.load_state_dict({"weight": layer.weight, "bias": layer.bias})
+    geom = build_geometry(x, radius=R)
+    F = torch.randn(n, 5, dtype=torch.float64)
+    for mode in ("classes", "edges"):
+        out = layer(F, geom, DensityPlan(geom, np.full(n, 1000.0), mode), emb)
+        torch.testing.assert_close(out, plain(F, geom), rtol=1e-12, atol=1e-12)
+
+
+class _Plain(CorrectionNet):
+    name = "plain-test"
+
+
+def test_dcdc_network_reduces_to_plain_cconv_network():
+    x, v, _, wx, wn = _scene(3, 5)
+    net = _perturb_modulation(_net("dcdc", 3))
+    plain = _Plain(3, **SMALL).double()
+    missing = plain.load_state_dict(net.state_dict(), strict=False)
+    assert not missing.missing_keys  # every plain weight comes from the dcdc net
+    rho = np.full(len(x), 1000.0)
+    torch.testing.assert_close(net(x, v, rho, wx, wn), plain(x, v, rho, wx, wn),
+                               rtol=1e-10, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", ["dcdc", "dcdc-antisym"])
+def test_fast_path_equals_per_edge_path(name):
+    x, v, rho, wx, wn = _scene(3, 5)
+    net = _perturb_modulation(_net(name, 3))
+    out = {}
+    grads = {}
+    for mode in ("classes", "edges"):
+        net.cfg.density_mode = mode
+        net.zero_grad()
+        vt = torch.tensor(v, requires_grad=True)
+        dx = net(x, vt, rho, wx, wn)
+        dx.square().sum().backward()
+        out[mode] = dx.detach()
+        grads[mode] = [vt.grad.clone()] + [p.grad.clone() for p in net.parameters()]
+    torch.testing.assert_close(out["classes"], out["edges"], rtol=1e-9, atol=1e-15)
+    for a, b in zip(grads["classes"], grads["edges"]):
+        torch.testing.assert_close(a, b, rtol=1e-8, atol=1e-14)
+
+
+def test_gradcheck_modulated_network_inputs():
+    x, v, rho, wx, wn = _scene(2, 4)
+    net = _perturb_modulation(_net("dcdc", 2, channels=[3, 4, 4]))
+    vt = torch.tensor(v, requires_grad=True)
+    assert torch.autograd.gradcheck(lambda vv: net(x, vv, rho, wx, wn), (vt,))
+    # and w.r.t. modulation and embedding weights (γ, β MLPs, φ)
+    names = ["conv0_fluid.modulation.gamma_mlp.0.weight", "convs.1.modulation.beta_mlp.2.bias",
+             "embedding.phi.0.weight"]
+    params = dict(net.named_parameters())
+    args = tuple(params[n].detach().clone().requires_grad_() for n in names)
+
+    def f(*ws):
+        return torch.func.functional_call(net, dict(zip(names, ws)), (x, v, rho, wx, wn))
+
+    assert torch.autograd.gradcheck(f, args)
+
+
+# ---------------------------------------------------------------------- networks
+@pytest.mark.parametrize("name", sorted(NETWORKS))
+@pytest.mark.parametrize("dim", [2, 3])
+def test_networks_invariant_to_translation_and_order(name, dim):
+    x, v, rho, wx, wn = _scene(dim, 4 if dim == 3 else 8)
+    net = _perturb_modulation(_net(name, dim))
+    dx = net(x, v, rho, wx, wn)
+    assert dx.shape == x.shape and torch.isfinite(dx).all()
+    shift = np.linspace(1.5, -2.0, dim)
+    torch.testing.assert_close(net(x + shift, v, rho, wx + shift, wn), dx, rtol=1e-8, atol=1e-12)
+    p = np.random.default_rng(0).permutation(len(x))
+    q = np.random.default_rng(1).permutation(len(wx))
+    torch.testing.assert_close(net(x[p], v[p], rho[p], wx[q], wn[q]), dx[p], rtol=1e-9,
+                               atol=1e-13)
+
+
+@pytest.mark.parametrize("mode", ["classes", "edges"])
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_antisymmetric_network_conserves_momentum(mode, dtype):
+    x, v, rho, _, _ = _scene(3, 6)
+    rho = rho * np.where(np.arange(len(x)) % 3 == 0, 1.0, 1.0)
+    if mode == "edges":  # continuous densities too
+        rho = rho * np.random.default_rng(2).uniform(0.9, 1.1, len(rho))
+    net = _perturb_modulation(_net("dcdc-antisym", 3, density_mode=mode)).to(dtype)
+    dx = net(x, v, rho, None, None).double()
+    p = (torch.tensor(rho)[:, None] * dx).sum(0)
+    scale = (torch.tensor(rho)[:, None] * dx).abs().sum(0)
+    eps = 1e-12 if dtype == torch.float64 else 1e-5
+    assert (p.abs() <= eps * scale).all(), (p, scale)
+    # the plain dcdc net does not conserve it
+    plain = _perturb_modulation(_net("dcdc", 3))
+    dxp = plain(x, v, rho, None, None)
+    assert (torch.tensor(rho)[:, None] * dxp).sum(0).abs().max() > 1e-3 * (
+        torch.tensor(rho)[:, None] * dxp).abs().sum()
+
+
+def test_build_network_errors():
+    with pytest.raises(DcdcError, match="unknown network"):
+        build_network("transformer", 3)
+    with pytest.raises(DcdcError, match="unknown network option"):
+        build_network("dcdc", 3, layers=7)
+    with pytest.raises(DcdcError, match="dim"):
+        build_network("dcdc", 4)
+    with pytest.raises(DcdcError, match="normalize"):
+        build_network("dcdc-antisym", 3, normalize=True)
+
+
+# ---------------------------------------------------------------------- integrator
+def test_step_is_algorithm_1():
+    x, v, rho, wx, wn = _scene(2, 6)
+    net = _net("dcdc", 2)
+    g = (0.0, -9.81)
+    x1, v1 = step(net, x, v, rho, wx, wn, dt=0.02, gravity=g)
+    xs, vs = inertial(torch.tensor(x), torch.tensor(v), 0.02, g)
+    torch.testing.assert_close(xs, torch.tensor(x + 0.02 * v + 0.5 * 0.02 ** 2 * np.array(g)))
+    dx = net(xs, vs, rho, wx, wn)
+    torch.testing.assert_close(x1, xs + dx)
+    torch.testing.assert_close(v1, (x1 - torch.tensor(x)) / 0.02)
+    # rollout = repeated steps
+    xr, vr = rollout(net, x, v, rho, wx, wn, n_steps=2, dt=0.02, gravity=g)
+    x2, v2 = step(net, x1, v1, rho, wx, wn, dt=0.02, gravity=g)
+    torch.testing.assert_close(xr, x2)
+    torch.testing.assert_close(vr, v2)
+
+
+def test_unrolled_steps_are_differentiable():
+    x, v, rho, wx, wn = _scene(3, 4)
+    net = _net("dcdc", 3).float()
+    xx, vv = torch.tensor(x, dtype=torch.float32), torch.tensor(v, dtype=torch.float32)
+    x1, v1 = step(net, xx, vv, rho, wx, wn)
+    x2, _ = step(net, x1, v1, rho, wx, wn)
+    loss = (x2 - xx).square().mean()
+    loss.backward()
+    grads = [p.grad for p in net.parameters()]
+    assert all(g is not None and torch.isfinite(g).all() for g in grads)
+    assert net.convs[-1].weight.grad.abs().sum() > 0
+
+
+# ---------------------------------------------------------------------- checkpoints
+def test_checkpoint_round_trip(tmp_path):
+    x, v, rho, wx, wn = _scene(3, 4)
+    net = _perturb_modulation(_net("dcdc", 3, normalize=True))
+    path = save_checkpoint(tmp_path / "m.pt", net, data={"dataset": "blocks", "frames": 12},
+                           extra={"step": 5})
+    model, ck = load_checkpoint(path, expect="dcdc", dim=3)
+    model = model.double()
+    assert ck["format"] == FORMAT and ck["data"]["frames"] == 12 and ck["extra"]["step"] == 5
+    assert model.config() == net.config() and model.cfg.normalize
+    torch.testing.assert_close(model(x, v, rho, wx, wn), net(x, v, rho, wx, wn))
+    raw = torch.load(path, weights_only=True)  # plain, weights-only loadable
+    assert set(raw) >= {"format", "format_version", "config", "state_dict", "code_version", "data"}
+
+
+def test_checkpoint_rejections(tmp_path):
+    net = _net("cconv", 2)
+    path = save_checkpoint(tmp_path / "c.pt", net)
+    with pytest.raises(DcdcError, match="holds a 'cconv' network, expected 'dcdc'"):
+        load_checkpoint(path, expect="dcdc")
+    with pytest.raises(DcdcError, match="2-D model, expected 3-D"):
+        load_checkpoint(path, dim=3)
+    ck = torch.load(path, weights_only=True)
+
+    def write(name, obj):
+        p = tmp_path / name
+        torch.save(obj, p)
+        return p
+
+    with pytest.raises(DcdcError, match="format version 99"):
+        load_checkpoint(write("v.pt", {**ck, "format_version": 99}))
+    with pytest.raises(DcdcError, match="not a dcdc checkpoint"):
+        load_checkpoint(write("o.pt", {"model": ck["state_dict"]}))
+    with pytest.raises(DcdcError, match="unknown architecture"):
+        load_checkpoint(write("a.pt", {**ck, "config": {**ck["config"], "name": "gns"}}))
+    wrong = {**ck, "config": {**ck["config"], "channels": [16, 12, 12]}}
+    with pytest.raises(DcdcError, match="weights do not fit"):
+        load_checkpoint(write("s.pt", wrong))
+    bad = tmp_path / "corrupt.pt"
+    bad.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(DcdcError, match="corrupt"):
+        load_checkpoint(bad)
+    with pytest.raises(DcdcError, match="does not exist"):
+        load_checkpoint(tmp_path / "nope.pt")
+    # a pickle that needs code to load is refused by weights_only
+    with pytest.raises(DcdcError, match="corrupt or not a dcdc checkpoint"):
+        load_checkpoint(write("evil.pt", {"format": FORMAT, "obj": argparse.Namespace(a=1)}))
