@@ -148,22 +148,28 @@ def _open3d():
 
 
 @pytest.mark.skipif(_open3d() is None, reason="open3d.ml.torch not installed (optional oracle)")
-def test_matches_open3d_continuous_conv():
+@pytest.mark.parametrize("window", [False, True])
+def test_matches_open3d_continuous_conv(window):
+    """Same layout (x-fastest cells, sender − receiver), mapping and interpolation as open3d."""
     ml3d = _open3d()
     x = _points(300, 3, seed=9, extent=0.4).astype(np.float32)
-    F = torch.randn(300, 4)
+    F = torch.randn(300, 4, requires_grad=True)
     W = _weights(3, 4, 6).float()
+
+    def poly6(r_sqr):
+        return torch.clamp((1 - r_sqr) ** 3, 0, 1)
+
     layer = ml3d.layers.ContinuousConv(kernel_size=[4, 4, 4], activation=None, use_bias=False,
                                        align_corners=True, interpolation="linear",
                                        coordinate_mapping="ball_to_cube_volume_preserving",
-                                       normalize=False, window_function=None,
+                                       normalize=False, window_function=poly6 if window else None,
                                        radius_search_ignore_query_points=True,
                                        in_channels=4, filters=6)
-    # open3d's filter is [z, y, x, Cin, Cout] indexed like our x-fastest cells
-    layer.kernel.data = W.reshape(4, 4, 4, 4, 6)
+    layer.kernel.data = W.reshape(4, 4, 4, 4, 6).clone()  # [z, y, x, Cin, Cout]
     xt = torch.from_numpy(x)
     ref = layer(F, xt, xt, extents=2 * R)
-    geom = build_geometry(x, radius=R, window=False)
-    out = cconv(F, W, geom)
-    # open3d uses inp - out coordinates as well; compare up to the filter's mirror if needed
-    assert torch.allclose(out, ref, atol=1e-4) or torch.allclose(out, -ref, atol=1e-4)
+    (gref,) = torch.autograd.grad(ref.square().sum(), F)
+    out = cconv(F, W, build_geometry(x, radius=R, window=window))
+    (gout,) = torch.autograd.grad(out.square().sum(), F)
+    torch.testing.assert_close(out, ref, rtol=1e-4, atol=1e-4)
+    torch.testing.assert_close(gout, gref, rtol=1e-4, atol=1e-3)
