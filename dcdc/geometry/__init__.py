@@ -5,4 +5,4 @@ solid, positive in the fluid space). :func:`sample_walls` turns any SDF into bou
 particles with normals (∇SDF, pointing into the fluid); :func:`fill_region` samples fluid on
 the rest lattice. Built-in shapes live in :mod:`dcdc.geometry.shapes`.
 """
-from .sampling import fill_box, fill_region, lattice, sample_walls  # noqa: F401
+from .sampling import fill_box, fill_region, lattice, sample_walls, sdf_normals  # noqa: F401

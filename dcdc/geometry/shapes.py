@@ -39,3 +39,281 @@ def union(*sdfs):
 def subtract(a, b):
     """Solid ``a`` with solid ``b`` removed."""
     return lambda x: np.maximum(a(x), -b(x))
+
+
+def intersect(*sdfs):
+    """Solid common to all ``sdfs``."""
+    return lambda x: np.max(np.stack([f(x) for f in sdfs]), axis=0)
+
+
+def sphere(center, radius: float):
+    """Solid ball (a disc in 2-D)."""
+    c = np.asarray(center, dtype=np.float64)
+    return lambda x: np.linalg.norm(x - c, axis=1) - radius
+
+
+def cylinder(center, radius: float, height: float, axis: int = 1):
+    """Solid cylinder of ``radius`` and ``height`` centred at ``center`` along ``axis``
+    (0, 1, 2 = x, y, z). In 2-D its cross-section through the axis is a rectangle; a
+    cylinder along z (axis 2) is a disc in 2-D."""
+    c = np.asarray(center, dtype=np.float64)
+
+    def f(x):
+        d = x.shape[1]
+        q = x - c[:d]
+        if d == 2:
+            if axis == 2:
+                return np.linalg.norm(q, axis=1) - radius
+            other = 1 - axis
+            rad = np.abs(q[:, other])
+        else:
+            others = [k for k in range(3) if k != axis]
+            rad = np.linalg.norm(q[:, others], axis=1)
+        a = np.stack([rad - radius, np.abs(q[:, axis]) - height / 2], axis=1)
+        return np.linalg.norm(np.maximum(a, 0), axis=1) + np.minimum(a.max(1), 0)
+    return f
+
+
+# ---------------------------------------------------------------- 2-D profiles, revolution
+def polyline_distance(points, x2: np.ndarray) -> np.ndarray:
+    """Unsigned distance from 2-D points ``x2`` [N, 2] to the polyline through ``points``."""
+    p = np.asarray(points, dtype=np.float64)
+    best = np.full(len(x2), np.inf)
+    for a, b in zip(p[:-1], p[1:]):
+        ab = b - a
+        t = np.clip(((x2 - a) @ ab) / max(ab @ ab, 1e-30), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(x2 - (a + t[:, None] * ab), axis=1))
+    return best
+
+
+def _radial(x: np.ndarray, center, up_axis: int = 1) -> np.ndarray:
+    """(distance from the vertical axis through ``center``, height) of each point. In 2-D
+    the distance is |x - cx| (the cross-section through the axis)."""
+    c = np.asarray(center, dtype=np.float64)[: x.shape[1]]
+    q = x - c
+    others = [k for k in range(x.shape[1]) if k != up_axis]
+    rad = np.linalg.norm(q[:, others], axis=1)
+    return np.stack([rad, q[:, up_axis]], axis=1)
+
+
+def revolved_shell(profile, thickness: float, center=(0.0, 0.0, 0.0)):
+    """Solid of revolution about the vertical axis through ``center``: the polyline
+    ``profile`` of (radius, height) points, thickened to a wall of ``thickness``. In 2-D this
+    is the cross-section through the axis (the profile mirrored about x = cx). Vessels
+    (glasses, bowls, hourglasses) are built this way."""
+    prof = np.asarray(profile, dtype=np.float64)
+    return lambda x: polyline_distance(prof, _radial(x, center)) - thickness / 2
+
+
+def profile_interior(profile, center=(0.0, 0.0, 0.0)):
+    """Predicate: inside the cavity bounded by a vessel profile (radius r(y) of the inner
+    wall, interpolated between the profile points, between its lowest and highest point)."""
+    prof = np.asarray(profile, dtype=np.float64)
+    order = np.argsort(prof[:, 1], kind="stable")
+    ys, rs = prof[order, 1], prof[order, 0]
+
+    def inside(x):
+        ry = _radial(x, center)
+        r = np.interp(ry[:, 1], ys, rs)
+        return (ry[:, 0] < r) & (ry[:, 1] > ys[0]) & (ry[:, 1] < ys[-1])
+    return inside
+
+
+def glass_profile(bowl, stem: float, foot: float):
+    """Centre-line of a stemmed glass: foot disc of radius ``foot`` at height 0, a stem of
+    height ``stem`` up the axis, then the bowl's inner profile ``bowl`` [(radius, height above
+    the bowl bottom)] from the axis to the rim. Returns (wall polyline, bowl inner profile),
+    both as (radius, height) relative to the glass's base centre."""
+    bowl = np.asarray(bowl, dtype=np.float64) + np.array([0.0, stem])
+    wall = np.concatenate([[[foot, 0.0], [0.0, 0.0]], bowl], axis=0)
+    return wall, bowl
+
+
+def hourglass_profile(radius: float, height: float, neck: float, neck_height: float = None):
+    """Inner wall of a closed hourglass of total ``height``: two cylindrical chambers of
+    ``radius`` joined by conical shoulders to a neck of radius ``neck`` at mid-height.
+    ``neck_height`` is the height of each conical shoulder (default radius)."""
+    h = height
+    s = radius if neck_height is None else neck_height
+    chamber = (h - 2 * s) / 2
+    return np.array([[0.0, 0.0], [radius, 0.0], [radius, chamber], [neck, chamber + s],
+                     [neck, chamber + s + 1e-6], [radius, chamber + 2 * s],
+                     [radius, h], [0.0, h]])
+
+
+def bowl_profile(radius: float, n: int = 24):
+    """Inner wall of a hemispherical bowl of ``radius`` (bottom at height 0, rim at
+    ``radius``)."""
+    a = np.linspace(0, np.pi / 2, n)
+    return np.stack([radius * np.sin(a), radius * (1 - np.cos(a))], axis=1)
+
+
+# ---------------------------------------------------------------- terrain
+def terrain_height(lo, hi, base: float, slope: float, seed: int = 0, roughness: float = 0.05,
+                   channels: int = 2, channel_depth: float = 0.15, channel_width: float = 0.25,
+                   depressions: int = 3, depression_depth: float = 0.15,
+                   depression_radius: float = 0.3):
+    """Procedural heightfield y = h(x, z) over the horizontal rectangle lo..hi ([x, z]):
+    a plane falling by ``slope`` (dy/dx) along +x, smooth random roughness, meandering
+    ``channels`` running downhill and round ``depressions`` (basins). Deterministic in
+    ``seed``. Returns ``h(x, z)`` taking arrays."""
+    rng = np.random.default_rng(seed)
+    lo = np.asarray(lo, dtype=np.float64)
+    hi = np.asarray(hi, dtype=np.float64)
+    L = hi - lo
+    waves = [(rng.uniform(0.5, 2.0) * 2 * np.pi / L[0], rng.uniform(0.5, 2.0) * 2 * np.pi / L[1],
+              rng.uniform(0, 2 * np.pi), rng.uniform(0.3, 1.0)) for _ in range(4)]
+    chans = [(rng.uniform(lo[1] + 0.3 * L[1], hi[1] - 0.3 * L[1]) if channels == 1 else
+              lo[1] + (k + 0.5) * L[1] / channels, rng.uniform(0.05, 0.15) * L[1],
+              rng.uniform(0.5, 1.5) * 2 * np.pi / L[0], rng.uniform(0, 2 * np.pi))
+             for k in range(channels)]
+    # depressions downstream of the first 30 % of the terrain, on channel lines when possible
+    deps = []
+    for k in range(depressions):
+        px = lo[0] + L[0] * (0.35 + 0.55 * (k + rng.uniform(0.2, 0.8)) / max(depressions, 1))
+        if chans:
+            z0, amp, kx, ph = chans[k % len(chans)]
+            pz = z0 + amp * np.sin(kx * (px - lo[0]) + ph)
+        else:
+            pz = rng.uniform(lo[1] + 0.2 * L[1], hi[1] - 0.2 * L[1])
+        deps.append((px, pz))
+
+    def h(x, z):
+        x = np.asarray(x, dtype=np.float64)
+        z = np.asarray(z, dtype=np.float64)
+        y = base - slope * (x - lo[0])
+        rough = sum(a * np.sin(kx * x + ph) * np.cos(kz * z + ph)
+                    for kx, kz, ph, a in waves) / len(waves)
+        y = y + roughness * rough
+        for z0, amp, kx, ph in chans:
+            zc = z0 + amp * np.sin(kx * (x - lo[0]) + ph)
+            y = y - channel_depth * np.exp(-0.5 * ((z - zc) / (channel_width / 2)) ** 2)
+        for px, pz in deps:
+            r2 = ((x - px) ** 2 + (z - pz) ** 2) / depression_radius ** 2
+            y = y - depression_depth * np.exp(-r2 * 1.5)
+        return y
+    return h
+
+
+def heightfield(h, slice_z: float = 0.0, up_axis: int = 1):
+    """Solid below the surface y = h(x, z): approximate SDF (y - h) / sqrt(1 + |∇h|²), exact
+    for planes and good for gentle terrain. In 2-D the terrain is cut at z = ``slice_z``."""
+    e = 1e-4
+
+    def f(x):
+        X = x[:, 0]
+        Z = x[:, 2] if x.shape[1] == 3 else np.full(len(x), slice_z)
+        y0 = h(X, Z)
+        gx = (h(X + e, Z) - h(X - e, Z)) / (2 * e)
+        gz = (h(X, Z + e) - h(X, Z - e)) / (2 * e) if x.shape[1] == 3 else 0.0
+        return (x[:, up_axis] - y0) / np.sqrt(1 + gx ** 2 + gz ** 2)
+    return f
+
+
+# ---------------------------------------------------------------- meshes
+def load_mesh(path, scale=1.0, translate=None):
+    """A triangle mesh (OBJ/STL/PLY... via trimesh), scaled then translated."""
+    import trimesh
+
+    from ..errors import DcdcError
+    try:
+        mesh = trimesh.load(str(path), force="mesh")
+    except Exception as e:  # trimesh raises many types for broken files
+        raise DcdcError(f"cannot read mesh {path}: {e}") from None
+    if not len(getattr(mesh, "faces", [])):
+        raise DcdcError(f"mesh {path} has no triangles")
+    mesh = mesh.copy()
+    mesh.apply_scale(scale)
+    if translate is not None:
+        mesh.apply_translation(np.asarray(translate, dtype=np.float64))
+    return mesh
+
+
+def _tri_distance(tris: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Unsigned distance from points p [N, 3] to the nearest of triangles tris [T, 3, 3]
+    (Ericson's closest-point-on-triangle, vectorised over points, looped over triangles in
+    chunks)."""
+    best = np.full(len(p), np.inf)
+    for chunk in range(0, len(tris), 256):
+        t = tris[chunk:chunk + 256]
+        a, b, c = t[:, 0][None], t[:, 1][None], t[:, 2][None]
+        P = p[:, None, :]
+        ab, ac, ap = b - a, c - a, P - a
+        d1 = (ab * ap).sum(-1); d2 = (ac * ap).sum(-1)
+        bp = P - b; d3 = (ab * bp).sum(-1); d4 = (ac * bp).sum(-1)
+        cp = P - c; d5 = (ab * cp).sum(-1); d6 = (ac * cp).sum(-1)
+        va = d3 * d6 - d5 * d4; vb = d5 * d2 - d1 * d6; vc = d1 * d4 - d3 * d2
+        denom = np.where(np.abs(va + vb + vc) < 1e-30, 1e-30, va + vb + vc)
+        v = vb / denom; w = vc / denom
+        q = a + v[..., None] * ab + w[..., None] * ac  # interior
+        # edges and vertices
+        def seg(s, e):
+            se = e - s
+            tt = np.clip(((P - s) * se).sum(-1) / np.maximum((se * se).sum(-1), 1e-30), 0, 1)
+            return s + tt[..., None] * se
+        inside = (va >= 0) & (vb >= 0) & (vc >= 0)
+        cand = [np.linalg.norm(P - seg(a, b), axis=-1), np.linalg.norm(P - seg(b, c), axis=-1),
+                np.linalg.norm(P - seg(c, a), axis=-1)]
+        dist = np.minimum.reduce(cand)
+        dist = np.where(inside, np.linalg.norm(P - q, axis=-1), dist)
+        best = np.minimum(best, dist.min(1))
+    return best
+
+
+def mesh_solid(mesh):
+    """SDF of the solid enclosed by a closed triangle mesh (3-D). Exact distance to the
+    triangles, sign from a winding-number test; points far outside the bounding box get the
+    box distance (a lower bound, enough for sampling and overlap checks)."""
+    tris = np.asarray(mesh.triangles, dtype=np.float64)
+    lo, hi = mesh.bounds
+    margin = 0.25 * float(np.max(hi - lo))
+    bb = box(lo - margin, hi + margin)
+
+    def winding(p):
+        # generalised winding number (Jacobson et al. 2013), ~1 inside, ~0 outside
+        total = np.zeros(len(p))
+        for chunk in range(0, len(tris), 512):
+            t = tris[chunk:chunk + 512][None] - p[:, None, None, :]
+            a, b, c = t[..., 0, :], t[..., 1, :], t[..., 2, :]
+            la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+            num = (a * np.cross(b, c)).sum(-1)
+            den = la * lb * lc + (a * b).sum(-1) * lc + (b * c).sum(-1) * la + (c * a).sum(-1) * lb
+            total += (2 * np.arctan2(num, den)).sum(1)
+        return total / (4 * np.pi)
+
+    def f(x):
+        x = np.asarray(x, dtype=np.float64)
+        out = bb(x)
+        near = out <= 0
+        if near.any():
+            p = x[near]
+            d = np.empty(len(p))
+            for s in range(0, len(p), 4096):
+                d[s:s + 4096] = _tri_distance(tris, p[s:s + 4096])
+            inside = np.concatenate([winding(p[s:s + 2048]) for s in range(0, len(p), 2048)]) > 0.5
+            out = out.copy()
+            out[near] = np.where(inside, -d, d)
+        return out
+    return f
+
+
+def mesh_section(mesh, z: float = 0.0):
+    """SDF of the 2-D cross-section of a closed mesh by the plane at height ``z`` (its
+    third coordinate): distance to the section's edges, negative inside."""
+    from ..errors import DcdcError
+    sec = mesh.section(plane_origin=[0, 0, z], plane_normal=[0, 0, 1])
+    if sec is None:
+        raise DcdcError(f"mesh does not cross the plane z = {z} (2-D cross-section is empty)")
+    lines = [np.asarray(sec.vertices)[e.points][:, :2] for e in sec.entities]
+    from matplotlib.path import Path
+
+    paths = [Path(ln) for ln in lines]
+
+    def f(x):
+        x2 = np.asarray(x, dtype=np.float64)[:, :2]
+        d = np.min([polyline_distance(ln, x2) for ln in lines], axis=0)
+        inside = np.zeros(len(x2), dtype=bool)
+        for pth in paths:
+            inside ^= pth.contains_points(x2)
+        return np.where(inside, -d, d)
+    return f

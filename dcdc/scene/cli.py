@@ -1,0 +1,97 @@
+"""``dcdc scene``: list, show, check, copy and randomise scenes."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+
+
+def _summary(system, scene) -> str:
+    lo, hi = system.domain
+    lines = [f"scene     {scene.name} ({system.dim}-D{', cross-section of the 3-D scene' if system.dim < scene.dim else ''})",
+             f"about     {scene.data['description']}" if scene.data["description"] else None,
+             f"domain    {lo.round(3).tolist()} .. {hi.round(3).tolist()} m",
+             f"radius    {system.radius:g} m (spacing {system.spacing:g} m)",
+             f"duration  {scene.duration:g} s ({int(round(scene.duration / scene.frame_dt))} frames of {scene.frame_dt:g} s)",
+             f"gravity   {system.gravity.round(4).tolist()} m/s²",
+             f"fluid     {system.n_fluid} particles"
+             + (f" ({int((system.birth > 0).sum())} emitted later)" if (system.birth > 0).any() else ""),
+             ]
+    for p, (name, n) in zip(system.phases, system.counts_per_phase().items()):
+        lines.append(f"  {name:<12} {n:>7}   ρ₀ = {p.density:g} kg/m³, ν = {p.viscosity:g} m²/s")
+    lines.append(f"walls     {system.n_wall} particles ({', '.join(scene.data['walls']) or 'none'})")
+    if scene.data["solver"]:
+        lines.append(f"solver    {scene.data['solver']}")
+    return "\n".join(ln for ln in lines if ln)
+
+
+@click.group("scene")
+def scene_group():
+    """Scene files: built-in scenes, validation, pictures, random training scenes."""
+
+
+@scene_group.command("list")
+def list_command():
+    """List the built-in scenes."""
+    from . import builtin_names, get_scene
+    for n in builtin_names():
+        s = get_scene(n)
+        click.echo(f"{n:<18} {s.data['description']}")
+
+
+@scene_group.command("show")
+@click.argument("scene")
+@click.option("--dim", type=click.IntRange(2, 3), default=None, help="2 = cross-section of a 3-D scene.")
+@click.option("--resolution", type=float, default=1.0, show_default=True,
+              help="Scale every length by S at fixed particle radius (fluid count ~S^dim).")
+@click.option("--image", type=click.Path(dir_okay=False), default=None, help="Draw the initial state (PNG).")
+def show_command(scene, dim, resolution, image):
+    """Validate and describe SCENE (a built-in name or a .toml file)."""
+    from . import get_scene
+    sc = get_scene(scene)
+    system = sc.realize(dim=dim, resolution=resolution)
+    click.echo(_summary(system, sc))
+    if image:
+        from .draw import draw
+        draw(system, image)
+        click.echo(f"image     {image}")
+
+
+@scene_group.command("copy")
+@click.argument("name")
+@click.argument("output", type=click.Path(dir_okay=False))
+def copy_command(name, output):
+    """Write built-in scene NAME to OUTPUT (a starting point for your own scene)."""
+    from . import builtin_text
+    Path(output).write_text(builtin_text(name))
+    click.echo(f"wrote {output}")
+
+
+@scene_group.command("random")
+@click.option("--seed", type=int, required=True)
+@click.option("--dim", type=click.IntRange(2, 3), default=2, show_default=True)
+@click.option("--max-ratio", type=float, default=10.0, show_default=True,
+              help="Largest density ratio between phases (curriculum parameter; 1 = single density).")
+@click.option("--min-ratio", type=float, default=1.0, show_default=True,
+              help="Smallest max/min density ratio (e.g. held-out tests beyond the training range).")
+@click.option("--density-range", type=(float, float), default=(500.0, 5000.0), show_default=True)
+@click.option("--duration", type=float, default=None, help="Seconds (default: drawn 2-3 s).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Write the scene file here (default: stdout).")
+@click.option("--image", type=click.Path(dir_okay=False), default=None)
+def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, output, image):
+    """A random training scene, reproducible from --seed."""
+    from .random import RandomSceneConfig, random_scene_text
+    cfg = RandomSceneConfig(dim=dim, max_ratio=max_ratio, min_ratio=min_ratio,
+                            density_range=density_range, duration=duration)
+    text = random_scene_text(seed, cfg)
+    if output:
+        Path(output).write_text(text)
+        click.echo(f"wrote {output}", err=True)
+    else:
+        click.echo(text, nl=False)
+    if image:
+        from . import parse
+        from .draw import draw
+        draw(parse(text, f"random seed {seed}").realize(), image)

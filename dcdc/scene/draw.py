@@ -1,0 +1,70 @@
+"""Pictures of a particle system's state (initial state of a scene, dataset frames)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..particles import ParticleSystem
+
+
+def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=None) -> Path:
+    """Draw fluid (coloured by phase) and walls (grey) to an image file.
+
+    2-D: one scatter plot. 3-D: a perspective view of the fluid with the front half of the
+    walls cut away, and a side view of the slab |z - z_mid| < 2 spacings (cross-section).
+    ``x`` overrides the fluid positions (e.g. a later frame), ``active`` masks particles.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = system.x if x is None else np.asarray(x)
+    if active is None:
+        active = system.birth <= 0
+    colors = np.array([p.color for p in system.phases])[system.phase]
+    x, colors = x[active], colors[active]
+    w = system.wall_x
+    lo, hi = system.domain
+    title = title or system.name
+    counts = ", ".join(f"{k} {v}" for k, v in system.counts_per_phase().items())
+    ms = max(0.5, min(30.0, 2.5e4 / max(len(x) + len(w), 1)))
+    if system.dim == 2:
+        fig, ax = plt.subplots(figsize=(7, 7 * (hi[1] - lo[1]) / max(hi[0] - lo[0], 1e-9) * 0.9 + 0.8))
+        ax.scatter(w[:, 0], w[:, 1], s=ms, c="0.6", marker="s", linewidths=0)
+        ax.scatter(x[:, 0], x[:, 1], s=ms, c=colors, linewidths=0)
+        ax.set_aspect("equal")
+        ax.set_xlim(lo[0] - 0.1, hi[0] + 0.1)
+        ax.set_ylim(lo[1] - 0.1, hi[1] + 0.1)
+        ax.set_title(f"{title} (2-D): {counts}", fontsize=9)
+    else:
+        fig = plt.figure(figsize=(13, 6))
+        ax = fig.add_subplot(1, 2, 1, projection="3d")
+        zc = 0.5 * (lo[2] + hi[2])
+        back = w[w[:, 2] >= zc]
+        ax.scatter(back[:, 0], back[:, 2], back[:, 1], s=ms * 0.3, c="0.75", alpha=0.25, linewidths=0)
+        ax.scatter(x[:, 0], x[:, 2], x[:, 1], s=ms * 0.5, c=colors, linewidths=0, depthshade=True)
+        ax.set_xlabel("x"); ax.set_ylabel("z"); ax.set_zlabel("y")
+        ext = (hi - lo).max() / 2
+        c = (hi + lo) / 2
+        ax.set_xlim(c[0] - ext, c[0] + ext); ax.set_ylim(c[2] - ext, c[2] + ext)
+        ax.set_zlim(c[1] - ext, c[1] + ext)
+        ax.view_init(elev=20, azim=-60)
+        ax.set_title(f"{title} (3-D): {counts}", fontsize=9)
+        ax2 = fig.add_subplot(1, 2, 2)
+        slab = 2 * system.spacing
+        ws = w[np.abs(w[:, 2] - zc) < slab]
+        xs = np.abs(x[:, 2] - zc) < slab
+        ax2.scatter(ws[:, 0], ws[:, 1], s=4, c="0.6", marker="s", linewidths=0)
+        ax2.scatter(x[xs, 0], x[xs, 1], s=6, c=colors[xs], linewidths=0)
+        ax2.set_aspect("equal")
+        ax2.set_xlim(lo[0] - 0.1, hi[0] + 0.1); ax2.set_ylim(lo[1] - 0.1, hi[1] + 0.1)
+        ax2.set_title(f"side view, slab |z - {zc:.2f}| < {slab:.2f}", fontsize=9)
+    for p, col in zip(system.phases, [p.color for p in system.phases]):
+        plt.scatter([], [], c=[col], label=f"{p.name} ({p.density:g} kg/m³)")
+    fig.legend(loc="lower center", ncol=max(1, len(system.phases)), fontsize=8, frameon=False)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90, bbox_inches="tight")
+    plt.close(fig)
+    return path

@@ -1,0 +1,630 @@
+"""Scene files: TOML text -> validated scene -> :class:`~dcdc.particles.ParticleSystem`.
+
+The format is documented in ``docs/scenes.md``. Every key is checked against a schema:
+unknown keys, wrong types and out-of-range values raise :class:`DcdcError` naming the
+dotted field and, where it can be found, its line ("phases.oil.density must be > 0
+(line 12)"). Realising a scene reports (never repairs) overlapping fluid blocks, fluid
+inside walls, fluid outside the domain and missing mesh files.
+
+A 3-D scene also yields its 2-D cross-section (``dim=2``): every vector drops its z
+component, solids of revolution become their section through the axis, terrain is cut at
+``slice_z`` and meshes are sectioned by the plane z = ``slice_z``. ``resolution`` S
+multiplies every length by S at a fixed particle radius, so the fluid count scales ~S^dim.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DcdcError
+from ..particles import DEFAULT_RADIUS, ParticleSystem, Phase
+
+FRAME_DT = 0.02
+
+# ------------------------------------------------------------------ schema
+# kinds: str, int, bool, float, pos (>0), nonneg (>=0), L (length > 0), L0 (length >= 0),
+# vec (dim floats), vecL (dim floats, a position/length), color, profileL ([[r, y], ...]
+# lengths), pairL ([a, b] lengths), pair ([a, b] floats), table (free-form)
+REQ = object()  # marks a required key
+
+TOP = {
+    "name": ("str", REQ), "description": ("str", ""), "dim": ("dim", REQ),
+    "radius": ("pos", DEFAULT_RADIUS), "duration": ("pos", 2.0), "frame_dt": ("pos", FRAME_DT),
+    "gravity": ("vec", None), "seed": ("int", 0), "wall_thickness": ("L", None),
+    "domain": ("section", REQ), "phases": ("section", REQ), "walls": ("section", {}),
+    "fluid": ("list", []), "emitter": ("list", []), "solver": ("table", {}),
+}
+DOMAIN = {"min": ("vecL", REQ), "max": ("vecL", REQ)}
+PHASE = {"density": ("pos", REQ), "viscosity": ("nonneg", 1e-6), "color": ("color", None)}
+WALL_COMMON = {"shape": ("str", REQ)}
+WALL_SHAPES = {
+    "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "hollow": ("bool", False),
+            "open_top": ("bool", True)},
+    "sphere": {"center": ("vecL", REQ), "radius": ("L", REQ)},
+    "cylinder": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
+                 "axis": ("int", 1)},
+    "bowl": {"center": ("vecL", REQ), "radius": ("L", REQ), "thickness": ("L", None)},
+    "glass": {"center": ("vecL", REQ), "bowl": ("profileL", REQ), "stem": ("L0", REQ),
+              "foot": ("L", REQ), "thickness": ("L", None)},
+    "hourglass": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
+                  "neck": ("L", REQ), "neck_height": ("L", None), "thickness": ("L", None)},
+    "terrain": {"x": ("pairL", REQ), "z": ("pairL", REQ), "base": ("float", REQ),
+                "slope": ("float", 0.1), "seed": ("int", None), "roughness": ("L0", 0.05),
+                "channels": ("int", 2), "channel_depth": ("L0", 0.15), "channel_width": ("L", 0.3),
+                "depressions": ("int", 3), "depression_depth": ("L0", 0.15),
+                "depression_radius": ("L", 0.3), "slice_z": ("float", None)},
+    "mesh": {"file": ("str", REQ), "scale": ("pos", 1.0), "translate": ("vec3L", None),
+             "hollow": ("bool", False), "slice_z": ("float", 0.0)},
+}
+FLUID_COMMON = {"phase": ("str", REQ), "shape": ("str", REQ), "velocity": ("vec", None),
+                "name": ("str", None)}
+FLUID_SHAPES = {
+    "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "top_wave": ("pair", None),
+            "bottom_wave": ("pair", None)},
+    "sphere": {"center": ("vecL", REQ), "radius": ("L", REQ)},
+    "cylinder": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
+                 "axis": ("int", 1)},
+    "fill": {"inside": ("str", REQ), "min": ("vecL", None), "max": ("vecL", None),
+             "clearance": ("L0", None)},
+}
+EMITTER = {"phase": ("str", REQ), "position": ("vecL", REQ), "direction": ("vec", REQ),
+           "speed": ("pos", REQ), "radius": ("L", None), "rate": ("pos", None),
+           "start": ("nonneg", 0.0), "stop": ("pos", REQ)}
+NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+DEFAULT_COLORS = [(0.85, 0.2, 0.15), (0.2, 0.7, 0.25), (0.15, 0.35, 0.85), (0.95, 0.75, 0.1),
+                  (0.6, 0.3, 0.75), (0.1, 0.7, 0.75), (0.9, 0.45, 0.1), (0.5, 0.5, 0.5)]
+
+
+def _find_line(text: str, path: str) -> int | None:
+    """Best-effort line number (1-based) of a dotted field in TOML text."""
+    if not text:
+        return None
+    parts = path.split(".")
+    lines = text.splitlines()
+    # array-of-tables element: fluid[2].min
+    m = re.match(r"^(\w+)\[(\d+)\]$", parts[0])
+    start, end = 0, len(lines)
+    if m:
+        hdr = re.compile(r"^\s*\[\[\s*" + re.escape(m.group(1)) + r"\s*\]\]")
+        hits = [i for i, ln in enumerate(lines) if hdr.match(ln)]
+        k = int(m.group(2))
+        if k >= len(hits):
+            return None
+        start = hits[k]
+        if len(parts) == 1:
+            return start + 1
+        key = parts[-1]
+    else:
+        # longest table header that is a prefix of the path
+        key = parts[-1]
+        for n in range(len(parts), 0, -1):
+            pat = re.compile(r"^\s*\[\s*" + r"\s*\.\s*".join(re.escape(p) for p in parts[:n])
+                             + r"\s*\]\s*(#.*)?$")
+            hits = [i for i, ln in enumerate(lines) if pat.match(ln)]
+            if hits:
+                if n == len(parts):
+                    return hits[0] + 1
+                start = hits[0]
+                key = parts[n]
+                break
+        else:
+            start = 0
+    for i in range(start + (1 if start or m else 0), end):
+        ln = lines[i]
+        if i > start and re.match(r"^\s*\[", ln) and (m or start):
+            break
+        if re.match(r"^\s*" + re.escape(key) + r"\s*=", ln) or \
+                re.search(r"[{,]\s*" + re.escape(key) + r"\s*=", ln):
+            return i + 1
+    return None
+
+
+class _Checker:
+    def __init__(self, text: str, source: str):
+        self.text = text
+        self.source = source
+
+    def fail(self, path: str, msg: str):
+        line = _find_line(self.text, path)
+        where = f" (line {line})" if line else ""
+        raise DcdcError(f"{self.source}: {path} {msg}{where}")
+
+    def value(self, path, kind, v, dim):
+        def num(x):
+            return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+        def vec(n):
+            if not (isinstance(v, list) and len(v) == n and all(num(c) for c in v)):
+                self.fail(path, f"must be a list of {n} numbers (got {v!r})")
+            return [float(c) for c in v]
+        if kind == "str":
+            if not isinstance(v, str):
+                self.fail(path, f"must be a string (got {v!r})")
+            return v
+        if kind == "int":
+            if not isinstance(v, int) or isinstance(v, bool):
+                self.fail(path, f"must be an integer (got {v!r})")
+            return v
+        if kind == "dim":
+            if v not in (2, 3) or isinstance(v, bool):
+                self.fail(path, f"must be 2 or 3 (got {v!r})")
+            return v
+        if kind == "bool":
+            if not isinstance(v, bool):
+                self.fail(path, f"must be true or false (got {v!r})")
+            return v
+        if kind in ("float", "pos", "nonneg", "L", "L0"):
+            if not num(v):
+                self.fail(path, f"must be a number (got {v!r})")
+            if kind in ("pos", "L") and not v > 0:
+                self.fail(path, f"must be > 0 (got {v})")
+            if kind in ("nonneg", "L0") and not v >= 0:
+                self.fail(path, f"must be >= 0 (got {v})")
+            return float(v)
+        if kind in ("vec", "vecL"):
+            return vec(dim)
+        if kind == "vec3L":
+            return vec(3)
+        if kind in ("pair", "pairL"):
+            return vec(2)
+        if kind == "color":
+            if isinstance(v, str) and re.match(r"^#[0-9a-fA-F]{6}$", v):
+                return [int(v[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+            if isinstance(v, list) and len(v) == 3 and all(num(c) and 0 <= c <= 1 for c in v):
+                return [float(c) for c in v]
+            self.fail(path, f"must be \"#rrggbb\" or [r, g, b] in 0..1 (got {v!r})")
+        if kind == "profileL":
+            if not (isinstance(v, list) and len(v) >= 2 and all(
+                    isinstance(p, list) and len(p) == 2 and all(num(c) for c in p) for p in v)):
+                self.fail(path, f"must be a list of at least two [radius, height] pairs")
+            if any(p[0] < 0 for p in v):
+                self.fail(path, "radii must be >= 0")
+            return [[float(a), float(b)] for a, b in v]
+        if kind == "table":
+            if not isinstance(v, dict):
+                self.fail(path, "must be a table")
+            return copy.deepcopy(v)
+        raise AssertionError(kind)
+
+    def table(self, path, d, spec, dim):
+        if not isinstance(d, dict):
+            self.fail(path, "must be a table")
+        out = {}
+        for k, v in d.items():
+            if k not in spec:
+                self.fail(f"{path}.{k}" if path else k,
+                          f"is not a known key (allowed: {', '.join(sorted(spec))})")
+        for k, (kind, default) in spec.items():
+            p = f"{path}.{k}" if path else k
+            if k in d:
+                if kind in ("section", "list"):
+                    out[k] = d[k]
+                else:
+                    out[k] = self.value(p, kind, d[k], dim)
+            elif default is REQ:
+                self.fail(p, "is required")
+            else:
+                out[k] = copy.deepcopy(default)
+        return out
+
+
+def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
+    """Check a parsed scene table against the schema; return it with defaults filled in."""
+    ck = _Checker(text, source)
+    dim = raw.get("dim")
+    if dim not in (2, 3) or isinstance(dim, bool):
+        ck.fail("dim", f"must be 2 or 3 (got {dim!r})" if "dim" in raw else "is required")
+    s = ck.table("", raw, TOP, dim)
+    if not NAME_RE.match(s["name"]):
+        ck.fail("name", "must be letters, digits, _ or - (starting with a letter)")
+    s["gravity"] = s["gravity"] if s["gravity"] is not None else [0.0, -9.81, 0.0][:dim]
+    s["domain"] = ck.table("domain", s["domain"], DOMAIN, dim)
+    if not all(b > a for a, b in zip(s["domain"]["min"], s["domain"]["max"])):
+        ck.fail("domain.max", "must exceed domain.min in every axis")
+    if not isinstance(s["phases"], dict) or not s["phases"]:
+        ck.fail("phases", "must define at least one phase ([phases.NAME] with a density)")
+    phases = {}
+    for i, (name, p) in enumerate(s["phases"].items()):
+        if not NAME_RE.match(name):
+            ck.fail(f"phases.{name}", "name must be letters, digits, _ or -")
+        phases[name] = ck.table(f"phases.{name}", p, PHASE, dim)
+        if phases[name]["color"] is None:
+            phases[name]["color"] = list(DEFAULT_COLORS[i % len(DEFAULT_COLORS)])
+    s["phases"] = phases
+    walls = {}
+    if not isinstance(s["walls"], dict):
+        ck.fail("walls", "must be a table of named walls ([walls.NAME] with a shape)")
+    for name, w in s["walls"].items():
+        p = f"walls.{name}"
+        if not isinstance(w, dict):
+            ck.fail(p, "must be a table")
+        shape = w.get("shape")
+        if shape not in WALL_SHAPES:
+            ck.fail(f"{p}.shape", f"must be one of {', '.join(WALL_SHAPES)} (got {shape!r})")
+        walls[name] = ck.table(p, w, {**WALL_COMMON, **WALL_SHAPES[shape]}, dim)
+        if shape == "box" and not all(b > a for a, b in zip(walls[name]["min"], walls[name]["max"])):
+            ck.fail(f"{p}.max", "must exceed min in every axis")
+        if shape in ("cylinder",) and walls[name]["axis"] not in range(dim):
+            ck.fail(f"{p}.axis", f"must be 0..{dim - 1}")
+        if shape == "hourglass" and walls[name]["neck"] >= walls[name]["radius"]:
+            ck.fail(f"{p}.neck", "must be smaller than radius")
+        if shape == "terrain":
+            for k in ("channels", "depressions"):
+                if not 0 <= walls[name][k] <= 16:
+                    ck.fail(f"{p}.{k}", "must be 0..16")
+    s["walls"] = walls
+    if not isinstance(s["fluid"], list):
+        ck.fail("fluid", "must be an array of tables ([[fluid]])")
+    fluids = []
+    for i, f in enumerate(s["fluid"]):
+        p = f"fluid[{i}]"
+        if not isinstance(f, dict):
+            ck.fail(p, "must be a table")
+        shape = f.get("shape")
+        if shape not in FLUID_SHAPES:
+            ck.fail(f"{p}.shape", f"must be one of {', '.join(FLUID_SHAPES)} (got {shape!r})")
+        fb = ck.table(p, f, {**FLUID_COMMON, **FLUID_SHAPES[shape]}, dim)
+        if fb["phase"] not in phases:
+            ck.fail(f"{p}.phase", f"names no phase (phases: {', '.join(phases)})")
+        if fb["velocity"] is None:
+            fb["velocity"] = [0.0] * dim
+        if shape == "fill" and fb["inside"] not in walls:
+            ck.fail(f"{p}.inside", f"names no wall (walls: {', '.join(walls) or 'none'})")
+        if shape == "box" and not all(b > a for a, b in zip(fb["min"], fb["max"])):
+            ck.fail(f"{p}.max", "must exceed min in every axis")
+        fluids.append(fb)
+    s["fluid"] = fluids
+    if not isinstance(s["emitter"], list):
+        ck.fail("emitter", "must be an array of tables ([[emitter]])")
+    ems = []
+    for i, e in enumerate(s["emitter"]):
+        p = f"emitter[{i}]"
+        em = ck.table(p, e, EMITTER, dim)
+        if em["phase"] not in phases:
+            ck.fail(f"{p}.phase", f"names no phase (phases: {', '.join(phases)})")
+        if np.linalg.norm(em["direction"]) == 0:
+            ck.fail(f"{p}.direction", "must be a non-zero vector")
+        if em["stop"] <= em["start"]:
+            ck.fail(f"{p}.stop", "must be later than start")
+        ems.append(em)
+    s["emitter"] = ems
+    if not fluids and not ems:
+        ck.fail("fluid", "is empty: a scene needs at least one [[fluid]] block or [[emitter]]")
+    return s
+
+
+# ------------------------------------------------------------------ variants
+def _transform(s: dict, dim: int, scale: float) -> dict:
+    """Cross-section (3-D -> 2-D) and length scaling of a validated scene."""
+    s = copy.deepcopy(s)
+    src = s["dim"]
+    if dim not in (2, 3):
+        raise DcdcError(f"dim must be 2 or 3 (got {dim})")
+    if dim > src:
+        raise DcdcError(f"scene {s['name']} is {src}-D; it has no {dim}-D variant")
+    if not scale > 0:
+        raise DcdcError(f"resolution must be > 0 (got {scale})")
+
+    def conv(d, spec):
+        for k, (kind, _) in spec.items():
+            v = d.get(k)
+            if v is None:
+                continue
+            if kind in ("vec", "vecL"):
+                v = v[:dim]
+            if kind in ("vecL", "vec3L", "pairL"):
+                v = [c * scale for c in v]
+            elif kind in ("L", "L0"):
+                v = v * scale
+            elif kind == "profileL":
+                v = [[a * scale, b * scale] for a, b in v]
+            d[k] = v
+    conv(s, {k: v for k, v in TOP.items() if v[0] not in ("section", "list", "table")})
+    conv(s["domain"], DOMAIN)
+    for w in s["walls"].values():
+        if w["shape"] == "terrain":
+            w["base"] *= scale
+            if w["slice_z"] is not None:
+                w["slice_z"] *= scale
+        if w["shape"] == "mesh":
+            w["slice_z"] *= scale
+            w["scale"] *= scale
+        conv(w, WALL_SHAPES[w["shape"]])
+    for f in s["fluid"]:
+        conv(f, {**FLUID_COMMON, **FLUID_SHAPES[f["shape"]]})
+        for k in ("top_wave", "bottom_wave"):
+            if f.get(k) is not None:
+                f[k] = [c * scale for c in f[k]]
+    for e in s["emitter"]:
+        conv(e, EMITTER)
+    s["dim"] = dim
+    return s
+
+
+# ------------------------------------------------------------------ realisation
+@dataclass
+class _Solid:
+    name: str
+    sdf: object
+    inside: object  # predicate: the fluid space this wall encloses (for shape = "fill")
+    bounds: tuple | None = None
+
+
+def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Solid]:
+    from ..geometry import shapes as sh
+    dim = s["dim"]
+    out = []
+    for name, w in s["walls"].items():
+        shape = w["shape"]
+        if shape == "box":
+            if w["hollow"]:
+                sdf = sh.container(w["min"], w["max"], open_top=w["open_top"])
+                lo, hi = np.array(w["min"]), np.array(w["max"])
+                inside = (lambda lo, hi: lambda x: ((x > lo) & (x < hi)).all(1))(lo, hi)
+            else:
+                sdf = sh.box(w["min"], w["max"])
+                inside = (lambda f: lambda x: f(x) > 0)(sdf)
+        elif shape == "sphere":
+            sdf = sh.sphere(w["center"], w["radius"])
+            inside = (lambda f: lambda x: f(x) > 0)(sdf)
+        elif shape == "cylinder":
+            sdf = sh.cylinder(w["center"], w["radius"], w["height"], w["axis"])
+            inside = (lambda f: lambda x: f(x) > 0)(sdf)
+        elif shape in ("bowl", "glass", "hourglass"):
+            t = w["thickness"] or thickness
+            c = list(w["center"]) + [0.0] * (3 - dim)
+            if shape == "bowl":
+                # centre-line of the wall half a thickness outside the cavity
+                wall = sh.bowl_profile(w["radius"] + t / 2) + np.array([0.0, -t / 2])
+                cav = sh.bowl_profile(w["radius"])
+            elif shape == "glass":
+                wall, bowl = sh.glass_profile(w["bowl"], w["stem"], w["foot"])
+                # cavity: the bowl's centre-line moved inwards by half the wall
+                cav = bowl + np.array([0.0, t / 2])
+                cav[:, 0] = np.maximum(cav[:, 0] - t / 2, 0)
+            else:
+                nh = w["neck_height"] or w["radius"]
+                wall = sh.hourglass_profile(w["radius"] + t / 2, w["height"] + t, w["neck"] + t / 2, nh)
+                cav = sh.hourglass_profile(w["radius"], w["height"], w["neck"], nh) \
+                    + np.array([0.0, t / 2])
+            sdf = sh.revolved_shell(wall, t, c)
+            inside = sh.profile_interior(cav, c)
+        elif shape == "terrain":
+            h = sh.terrain_height([w["x"][0], w["z"][0]], [w["x"][1], w["z"][1]], w["base"], w["slope"],
+                                  w["seed"] if w["seed"] is not None else s["seed"], w["roughness"],
+                                  w["channels"], w["channel_depth"], w["channel_width"],
+                                  w["depressions"], w["depression_depth"], w["depression_radius"])
+            sz = w["slice_z"] if w["slice_z"] is not None else 0.5 * (w["z"][0] + w["z"][1])
+            sdf = sh.heightfield(h, slice_z=sz)
+            inside = (lambda f: lambda x: f(x) > 0)(sdf)
+        elif shape == "mesh":
+            p = Path(w["file"])
+            if not p.is_absolute():
+                p = (base_dir or Path.cwd()) / p
+            if not p.exists():
+                raise DcdcError(f"walls.{name}.file: mesh file {p} not found")
+            mesh = sh.load_mesh(p, w["scale"], w["translate"])
+            solid = sh.mesh_solid(mesh) if dim == 3 else sh.mesh_section(mesh, w["slice_z"])
+            sdf = (lambda f: lambda x: -f(x))(solid) if w["hollow"] else solid
+            inside = (lambda f: lambda x: f(x) > 0)(sdf)
+        else:  # pragma: no cover - validated before
+            raise AssertionError(shape)
+        out.append(_Solid(name, sdf, inside))
+    return out
+
+
+def _union(solids):
+    if not solids:
+        return lambda x: np.full(len(x), np.inf)
+    return lambda x: np.min(np.stack([w.sdf(x) for w in solids]), axis=0)
+
+
+def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, solids, union):
+    from ..geometry import lattice, shapes as sh
+    shape = f["shape"]
+    if shape == "box":
+        lo, hi = np.array(f["min"]), np.array(f["max"])
+        top, bot = f["top_wave"], f["bottom_wave"]
+        ext = np.zeros(dim)
+        ext[1] = max(abs(top[0]) if top else 0.0, abs(bot[0]) if bot else 0.0)
+        pts = lattice(lo + spacing / 2 - ext, hi - spacing / 2 + ext, spacing, anchor)
+        keep = (pts[:, 1] >= lo[1]) & (pts[:, 1] <= hi[1]) if not (top or bot) else \
+            np.ones(len(pts), dtype=bool)
+        x0 = pts[:, 0] - lo[0]
+        # a wavy face y = face + a cos(2 pi x / wavelength); flat faces stay at the box
+        keep &= pts[:, 1] < (hi[1] + top[0] * np.cos(2 * np.pi * x0 / top[1]) if top else hi[1])
+        keep &= pts[:, 1] >= (lo[1] + bot[0] * np.cos(2 * np.pi * x0 / bot[1]) if bot else lo[1])
+        pts = pts[keep]
+        return pts
+    if shape == "sphere":
+        c, r = np.array(f["center"]), f["radius"]
+        pts = lattice(c - r, c + r, spacing, anchor)
+        return pts[np.linalg.norm(pts - c, axis=1) <= r - spacing / 2 + 1e-9]
+    if shape == "cylinder":
+        c, r, h = np.array(f["center"]), f["radius"], f["height"]
+        half = np.full(dim, r)
+        half[f["axis"]] = h / 2
+        pts = lattice(c - half, c + half, spacing, anchor)
+        sdf = sh.cylinder(c, r - spacing / 2, h - spacing, f["axis"])
+        return pts[sdf(pts) <= 1e-9]
+    if shape == "fill":
+        lo = np.array(f["min"]) if f["min"] is not None else dom_lo
+        hi = np.array(f["max"]) if f["max"] is not None else dom_hi
+        lo, hi = np.maximum(lo, dom_lo), np.minimum(hi, dom_hi)
+        pts = lattice(lo, hi, spacing, anchor)
+        if not len(pts):
+            return pts
+        wall = next(w for w in solids if w.name == f["inside"])
+        clearance = f["clearance"] if f["clearance"] is not None else spacing / 2
+        keep = wall.inside(pts)
+        pts = pts[keep]
+        if len(pts):
+            pts = pts[union(pts) >= clearance - 1e-9]
+        return pts
+    raise AssertionError(shape)
+
+
+def _emitter_points(e: dict, dim: int, spacing: float):
+    """Nozzle cross-section points (a disc in 3-D, a segment in 2-D) repeated in layers."""
+    d = np.asarray(e["direction"], dtype=np.float64)
+    d /= np.linalg.norm(d)
+    r = e["radius"] if e["radius"] is not None else 2 * spacing
+    # orthonormal basis of the plane normal to d
+    a = np.eye(dim)[np.argmin(np.abs(d))]
+    u = a - (a @ d) * d
+    u /= np.linalg.norm(u)
+    n = int(np.floor(r / spacing + 1e-9))
+    ks = np.arange(-n, n + 1) * spacing
+    if dim == 2:
+        disc = ks[:, None] * u[None]
+    else:
+        w = np.cross(d, u)
+        g = np.stack(np.meshgrid(ks, ks, indexing="ij"), -1).reshape(-1, 2)
+        g = g[np.linalg.norm(g, axis=1) <= r + 1e-9]
+        disc = g[:, :1] * u[None] + g[:, 1:] * w[None]
+    pos = np.asarray(e["position"]) + disc
+    per_layer = len(pos)
+    interval = spacing / e["speed"] if e["rate"] is None else per_layer / e["rate"]
+    n_layers = int(np.ceil((e["stop"] - e["start"]) / interval - 1e-9))
+    births = e["start"] + interval * np.arange(n_layers)
+    x = np.tile(pos, (n_layers, 1))
+    b = np.repeat(births, per_layer)
+    v = np.tile(e["speed"] * d, (len(x), 1))
+    return x, v, b
+
+
+@dataclass
+class Scene:
+    """A validated scene. ``data`` holds every field with defaults filled in."""
+
+    data: dict
+    text: str = ""
+    path: Path | None = None
+    builtin: bool = False
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def name(self) -> str:
+        return self.data["name"]
+
+    @property
+    def dim(self) -> int:
+        return self.data["dim"]
+
+    @property
+    def duration(self) -> float:
+        return self.data["duration"]
+
+    @property
+    def frame_dt(self) -> float:
+        return self.data["frame_dt"]
+
+    @property
+    def solver(self) -> dict:
+        return copy.deepcopy(self.data["solver"])
+
+    def variant(self, dim: int | None = None, resolution: float = 1.0) -> dict:
+        return _transform(self.data, dim or self.dim, resolution)
+
+    def realize(self, dim: int | None = None, resolution: float = 1.0,
+                check: bool = True) -> ParticleSystem:
+        """Particles of this scene (the ``dim``-D variant at ``resolution``); with ``check``,
+        overlaps and fluid inside walls/outside the domain raise :class:`DcdcError`."""
+        from ..geometry import sample_walls
+        from ..neighbors import radius_search
+
+        s = self.variant(dim, resolution)
+        dim = s["dim"]
+        r = s["radius"]
+        spacing = 2 * r
+        anchor = np.full(dim, r)  # global lattice: odd multiples of r
+        thickness = s["wall_thickness"] or 4 * r
+        lo, hi = np.array(s["domain"]["min"]), np.array(s["domain"]["max"])
+        base_dir = self.path.parent if self.path else None
+        solids = _build_walls(s, base_dir, thickness)
+        union = _union(solids)
+        if solids:
+            pad = thickness + spacing
+            wx, wn = sample_walls(union, lo - pad, hi + pad, spacing, thickness, anchor)
+        else:
+            wx, wn = np.zeros((0, dim)), np.zeros((0, dim))
+        names = list(s["phases"])
+        phases = [Phase(n, p["density"], p["viscosity"], tuple(p["color"])) for n, p in s["phases"].items()]
+        xs, vs, ph, births, blocks = [], [], [], [], []
+        src = str(self.path.name) if self.path else self.name
+        for i, f in enumerate(s["fluid"]):
+            pts = _fluid_points(f, dim, spacing, anchor, lo, hi, solids, union)
+            label = f"fluid[{i}]" + (f" ({f['name']})" if f["name"] else f" ({f['phase']})")
+            line = _find_line(self.text, f"fluid[{i}]")
+            at = f" (line {line})" if line else ""
+            if check and not len(pts):
+                raise DcdcError(f"{src}: {label} holds no particles at this resolution{at}")
+            if check and len(pts):
+                if solids:
+                    d = union(pts)
+                    bad = d < 0.5 * r
+                    if bad.any():
+                        j = int(np.flatnonzero(bad)[0])
+                        which = min(solids, key=lambda w: float(w.sdf(pts[j:j + 1])[0])).name
+                        raise DcdcError(f"{src}: {label} has {int(bad.sum())} particle(s) inside or "
+                                        f"touching walls.{which}, e.g. at {pts[j].round(3).tolist()}{at}")
+                out = ~((pts >= lo) & (pts <= hi)).all(1)
+                if out.any():
+                    raise DcdcError(f"{src}: {label} has {int(out.sum())} particle(s) outside the "
+                                    f"domain{at}")
+                for k, (lab2, prev) in enumerate(blocks):
+                    nb = radius_search(pts, 0.75 * spacing, prev)
+                    if nb.n_edges:
+                        raise DcdcError(f"{src}: {label} overlaps {lab2} "
+                                        f"({int((nb.counts > 0).sum())} particles){at}")
+            blocks.append((label, pts))
+            xs.append(pts)
+            vs.append(np.tile(np.asarray(f["velocity"], dtype=np.float64), (len(pts), 1)))
+            ph.append(np.full(len(pts), names.index(f["phase"])))
+            births.append(np.zeros(len(pts)))
+        for i, e in enumerate(s["emitter"]):
+            x, v, b = _emitter_points(e, dim, spacing)
+            if check and solids and (union(x) < 0.5 * r).any():
+                raise DcdcError(f"{src}: emitter[{i}] nozzle lies inside a wall")
+            if check and not ((x >= lo) & (x <= hi)).all():
+                raise DcdcError(f"{src}: emitter[{i}] nozzle lies outside the domain")
+            xs.append(x)
+            vs.append(v)
+            ph.append(np.full(len(x), names.index(e["phase"])))
+            births.append(b)
+        cat = (lambda a, w: np.concatenate(a) if a else np.zeros((0, w)))
+        system = ParticleSystem(
+            dim=dim, radius=r, x=cat(xs, dim), v=cat(vs, dim),
+            phase=np.concatenate(ph) if ph else np.zeros(0, int), phases=phases,
+            wall_x=wx, wall_n=wn, gravity=np.asarray(s["gravity"], dtype=np.float64),
+            domain=(lo, hi), birth=np.concatenate(births) if births else None, name=self.name,
+            meta={"scene": self.name, "resolution": resolution, "scene_dim": self.dim,
+                  "duration": s["duration"], "frame_dt": s["frame_dt"], "seed": s["seed"]})
+        return system
+
+
+def parse(text: str, source: str = "scene", path: Path | None = None, builtin=False) -> Scene:
+    """Parse and validate scene TOML text."""
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise DcdcError(f"{source}: not valid TOML: {e}") from None
+    return Scene(validate(raw, text, source), text, path, builtin)
+
+
+def load(path) -> Scene:
+    """Load and validate a scene file."""
+    p = Path(path)
+    if not p.is_file():
+        raise DcdcError(f"scene file {p} not found")
+    try:
+        text = p.read_text()
+    except (OSError, UnicodeDecodeError) as e:
+        raise DcdcError(f"cannot read scene file {p}: {e}") from None
+    return parse(text, p.name, p.resolve())
