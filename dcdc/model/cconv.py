@@ -167,7 +167,9 @@ def _transpose_kernel(row_splits, src, n_virtual):
 
 
 # --------------------------------------------------------------------------- aggregation kernels
-@nb.njit(cache=True, parallel=True)
+# fastmath lets LLVM vectorise the channel loops (3-4x faster here); the slices tell it
+# that the destination segment and the source row are contiguous vectors.
+@nb.njit(cache=True, parallel=True, fastmath=True)
 def _spread(row_splits, src, cells, w, F, r0, r1, out):
     """out[i - r0, c·C:(c+1)·C] = Σ_{edges e of row i, corners k with cell c} w[e,k]·F[src[e]]."""
     C = F.shape[1]
@@ -177,15 +179,15 @@ def _spread(row_splits, src, cells, w, F, r0, r1, out):
         row = out[ii]
         row[:] = 0.0
         for e in range(row_splits[i], row_splits[i + 1]):
-            j = src[e]
+            fj = F[src[e]]
             for k in range(nk):
-                base = cells[e, k] * C
+                seg = row[cells[e, k] * C:(cells[e, k] + 1) * C]
                 wk = w[e, k]
                 for c in range(C):
-                    row[base + c] += wk * F[j, c]
+                    seg[c] += wk * fj[c]
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, fastmath=True)
 def _collect(row_splits, src, cells, w, H, out):
     """out[i] = Σ_{edges e of row i, corners k} w[e,k]·H[src[e], cells[e,k]·C : +C]."""
     C = out.shape[1]
@@ -194,15 +196,15 @@ def _collect(row_splits, src, cells, w, H, out):
         row = out[i]
         row[:] = 0.0
         for e in range(row_splits[i], row_splits[i + 1]):
-            j = src[e]
+            hj = H[src[e]]
             for k in range(nk):
-                base = cells[e, k] * C
+                seg = hj[cells[e, k] * C:(cells[e, k] + 1) * C]
                 wk = w[e, k]
                 for c in range(C):
-                    row[c] += wk * H[j, base + c]
+                    row[c] += wk * seg[c]
 
 
-@nb.njit(cache=True, parallel=True)
+@nb.njit(cache=True, parallel=True, fastmath=True)
 def _collect_edges(row_splits, src, cells, w, dA, r0, r1, out):
     """out[src[e]] = Σ_k w[e,k]·dA[i - r0, cells[e,k]·C : +C] for the edges of rows r0..r1.
 
@@ -211,15 +213,15 @@ def _collect_edges(row_splits, src, cells, w, dA, r0, r1, out):
     nk = cells.shape[1]
     for ii in nb.prange(r1 - r0):
         i = r0 + ii
+        da = dA[ii]
         for e in range(row_splits[i], row_splits[i + 1]):
-            j = src[e]
-            for c in range(C):
-                out[j, c] = 0.0
+            o = out[src[e]]
+            o[:] = 0.0
             for k in range(nk):
-                base = cells[e, k] * C
+                seg = da[cells[e, k] * C:(cells[e, k] + 1) * C]
                 wk = w[e, k]
                 for c in range(C):
-                    out[j, c] += wk * dA[ii, base + c]
+                    o[c] += wk * seg[c]
 
 
 # --------------------------------------------------------------------------- geometry object

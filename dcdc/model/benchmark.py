@@ -1,0 +1,293 @@
+"""``dcdc benchmark cconv`` and ``dcdc benchmark model``: speed of the learned simulator here.
+
+* ``cconv``: one C→C CConv layer (default 64→64, K = 4, 3-D) on a jittered lattice of
+  ~30 k particles at the rest spacing 2r (≈ 43 neighbours within R = 4.5 r): forward and
+  forward + backward time, peak memory, achieved GFLOP/s of the layer's GEMM work, and the
+  ratio to the *GEMM-only bound* (the same GEMM shapes timed alone with torch.mm on this CPU).
+* ``model``: milliseconds per neural step (Algorithm 1, neighbour search included, no
+  gradients) for 1 k / 10 k / 50 k particles in 3-D for each network, with the breakdown
+  search / geometry / convolutions (all network layers) / other, peak memory and threads.
+
+Timings are medians of ``--repeat`` runs after a warm-up. Peak memory is the peak rise of
+the process's resident set during the measured runs (sampled every 2 ms). Optional: run with
+``LD_PRELOAD=/usr/lib/x86_64-linux-gnu/libtcmalloc_minimal.so.4`` (Debian package
+``libtcmalloc-minimal4``) — the CConv path reuses its buffers, so the gain is small.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import threading
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+
+from ..particles import DEFAULT_RADIUS
+
+R = 4.5 * DEFAULT_RADIUS
+SPACING = 2 * DEFAULT_RADIUS
+
+
+class PeakRSS:
+    """Context manager: peak rise of the resident set size [MiB] while inside."""
+
+    def __init__(self, interval: float = 0.002):
+        self.interval = interval
+        self.peak_mib = 0.0
+
+    @staticmethod
+    def _rss() -> int:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+    def _poll(self):
+        while not self._stop.is_set():
+            self._max = max(self._max, self._rss())
+            time.sleep(self.interval)
+
+    def __enter__(self):
+        self._base = self._max = self._rss()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._poll, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+        self._max = max(self._max, self._rss())
+        self.peak_mib = (self._max - self._base) / 2 ** 20
+
+
+def _median_time(fn, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def lattice(n: int, dim: int = 3, seed: int = 0, jitter: float = 0.2) -> np.ndarray:
+    """≈ n particles on a cubic lattice at spacing 2r, jittered by ±jitter·2r."""
+    side = max(2, round(n ** (1 / dim)))
+    g = np.arange(side) * SPACING
+    x = np.stack(np.meshgrid(*[g] * dim, indexing="ij"), -1).reshape(-1, dim)
+    return x + np.random.default_rng(seed).uniform(-jitter, jitter, x.shape) * SPACING
+
+
+def machine_info() -> dict:
+    import numba
+
+    return {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+            "torch_threads": torch.get_num_threads(), "numba_threads": numba.get_num_threads(),
+            "torch": torch.__version__, "ld_preload": os.environ.get("LD_PRELOAD", ""),
+            "time": time.strftime("%Y-%m-%d %H:%M:%S")}
+
+
+def _write_json(path, payload):
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(json.dumps(payload, indent=2) + "\n")
+        click.echo(f"wrote {path}")
+
+
+# --------------------------------------------------------------------------- one layer
+def run_cconv(particles: int = 30000, channels: int = 64, kernel_size: int = 4,
+              repeat: int = 3, bf16: bool = True, backends=("numba",)) -> dict:
+    from .cconv import build_geometry, cconv
+
+    x = lattice(particles)
+    n = len(x)
+    geom = build_geometry(x, radius=R, kernel_size=kernel_size)
+    t_geom = _median_time(lambda: build_geometry(x, radius=R, kernel_size=kernel_size), repeat)
+    ncell = kernel_size ** 3
+    torch.manual_seed(0)
+    F = torch.randn(n, channels, requires_grad=True)
+    W = (torch.randn(ncell, channels, channels) * 0.02).requires_grad_()
+    gemm_flops = 2.0 * n * ncell * channels * channels
+
+    # GEMM-only bound: the layer's GEMMs alone (fwd: A@W; bwd: B@W'ᵀ and Fᵀ@B)
+    A = torch.randn(n, ncell * channels)
+    Wf = torch.randn(ncell * channels, channels)
+    t_gemm = _median_time(lambda: A @ Wf, repeat)
+    t_gemm_bwd = _median_time(lambda: (A @ Wf, F.detach().t() @ A), repeat)
+    rows = []
+
+    def measure(label, backend, gemm_dtype=None, grad=True):
+        def fwd():
+            with torch.no_grad():
+                cconv(F, W, geom, backend, gemm_dtype)
+
+        def fwd_bwd():
+            F.grad = W.grad = None
+            cconv(F, W, geom, backend).square().sum().backward()
+
+        fwd()  # warm-up (compilation, sparse matrices)
+        with PeakRSS() as mem_f:
+            t_f = _median_time(fwd, repeat)
+        row = {"variant": label, "particles": n, "edges": geom.n_edges,
+               "neighbors": geom.n_edges / n, "fwd_s": t_f, "fwd_peak_mib": mem_f.peak_mib,
+               "fwd_gflops": gemm_flops / t_f / 1e9, "fwd_vs_gemm_bound": t_f / t_gemm}
+        if grad:
+            fwd_bwd()
+            with PeakRSS() as mem_b:
+                t_b = _median_time(fwd_bwd, repeat)
+            row.update({"fwd_bwd_s": t_b, "fwd_bwd_peak_mib": mem_b.peak_mib,
+                        "fwd_bwd_gflops": 3 * gemm_flops / t_b / 1e9,
+                        "fwd_bwd_vs_gemm_bound": t_b / (t_gemm + t_gemm_bwd)})
+        rows.append(row)
+
+    for backend in backends:
+        measure(f"{backend} fp32", backend)
+    if bf16:
+        measure("numba bf16 GEMM (inference)", "numba", torch.bfloat16, grad=False)
+    return {"benchmark": "cconv", "machine": machine_info(),
+            "setup": {"particles": n, "channels": f"{channels}->{channels}",
+                      "kernel": f"{kernel_size}^3", "radius": R,
+                      "mean_neighbors": geom.n_edges / n, "geometry_s": t_geom,
+                      "gemm_gflop": gemm_flops / 1e9, "gemm_bound_fwd_s": t_gemm,
+                      "gemm_bound_fwd_bwd_s": t_gemm + t_gemm_bwd,
+                      "gemm_gflops": gemm_flops / t_gemm / 1e9},
+            "rows": rows}
+
+
+@click.command("cconv")
+@click.option("--particles", default=30000, show_default=True, help="lattice particles (≈)")
+@click.option("--channels", default=64, show_default=True, help="C_in = C_out")
+@click.option("--kernel-size", default=4, show_default=True)
+@click.option("--repeat", default=3, show_default=True)
+@click.option("--bf16/--no-bf16", default=True, show_default=True,
+              help="also time bf16 GEMMs (AMX) for inference")
+@click.option("--torch-backend/--no-torch-backend", default=False, show_default=True,
+              help="also time the pure-torch (sparse CSR) backend used on CUDA")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
+              help="write results here (e.g. benchmarks/cconv.json)")
+def cconv_command(particles, channels, kernel_size, repeat, bf16, torch_backend, json_path):
+    """One CConv layer: time, memory, GFLOP/s vs the GEMM-only bound."""
+    backends = ("numba", "torch") if torch_backend else ("numba",)
+    res = run_cconv(particles, channels, kernel_size, repeat, bf16, backends)
+    s = res["setup"]
+    click.echo(f"CConv {s['channels']}, kernel {s['kernel']}, {s['particles']} particles, "
+               f"{s['mean_neighbors']:.1f} neighbours, threads torch "
+               f"{res['machine']['torch_threads']} / numba {res['machine']['numba_threads']}")
+    click.echo(f"geometry (search + cells/weights): {s['geometry_s'] * 1e3:.0f} ms; GEMM bound: "
+               f"fwd {s['gemm_bound_fwd_s'] * 1e3:.0f} ms, fwd+bwd "
+               f"{s['gemm_bound_fwd_bwd_s'] * 1e3:.0f} ms ({s['gemm_gflops']:.0f} GFLOP/s)")
+    click.echo(f"{'variant':30s} {'fwd ms':>8s} {'GFLOP/s':>8s} {'×bound':>7s} {'MiB':>6s} "
+               f"{'fwd+bwd ms':>11s} {'GFLOP/s':>8s} {'×bound':>7s} {'MiB':>6s}")
+    for r in res["rows"]:
+        line = (f"{r['variant']:30s} {r['fwd_s'] * 1e3:8.0f} {r['fwd_gflops']:8.0f} "
+                f"{r['fwd_vs_gemm_bound']:7.2f} {r['fwd_peak_mib']:6.0f}")
+        if "fwd_bwd_s" in r:
+            line += (f" {r['fwd_bwd_s'] * 1e3:11.0f} {r['fwd_bwd_gflops']:8.0f} "
+                     f"{r['fwd_bwd_vs_gemm_bound']:7.2f} {r['fwd_bwd_peak_mib']:6.0f}")
+        click.echo(line)
+    _write_json(json_path, res)
+
+
+# --------------------------------------------------------------------------- whole step
+def tank(n: int, dim: int = 3, seed: int = 0):
+    """A two-phase block (heavy below, light above) of ≈ n particles on a wall floor/sides."""
+    x = lattice(n, dim, seed)
+    top = x[:, 1] > np.median(x[:, 1])
+    rho = np.where(top, 1000.0, 2000.0)
+    lo, hi = x.min(0) - SPACING, x.max(0) + SPACING
+    walls, normals = [], []
+    for axis in range(dim):
+        if axis == 1:
+            sides = [(lo, 1.0)]  # floor only, open top
+        else:
+            sides = [(lo, 1.0), (hi, -1.0)]
+        for corner, sign in sides:
+            others = [a for a in range(dim) if a != axis]
+            grids = [np.arange(lo[a], hi[a] + 1e-9, SPACING) for a in others]
+            pts = np.stack(np.meshgrid(*grids, indexing="ij"), -1).reshape(-1, dim - 1)
+            w = np.empty((len(pts), dim))
+            w[:, others] = pts
+            w[:, axis] = corner[axis]
+            nrm = np.zeros_like(w)
+            nrm[:, axis] = sign
+            walls.append(w)
+            normals.append(nrm)
+    v = np.random.default_rng(seed + 1).normal(scale=0.1, size=x.shape)
+    return x, v, rho, np.concatenate(walls), np.concatenate(normals)
+
+
+def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antisym"),
+              repeat: int = 5, bf16: bool = False, echo=None) -> dict:
+    from .integrator import step
+    from .networks import build_network
+
+    rows = []
+    for name in networks:
+        torch.manual_seed(0)
+        net = build_network(name, 3).eval()
+        if bf16:
+            net.set_backend("auto", torch.bfloat16)
+        for n in sizes:
+            x, v, rho, wx, wn = tank(n)
+            xt, vt = torch.tensor(x, dtype=torch.float32), torch.tensor(v, dtype=torch.float32)
+            with torch.no_grad():
+                step(net, xt, vt, rho, wx, wn)  # warm-up
+                net.profile, net.timings = True, {}
+                totals = []
+                with PeakRSS() as mem:
+                    for _ in range(repeat):
+                        t0 = time.perf_counter()
+                        step(net, xt, vt, rho, wx, wn)
+                        totals.append(time.perf_counter() - t0)
+                net.profile = False
+            parts = {k: v_ / repeat for k, v_ in net.timings.items()}
+            total = statistics.median(totals)
+            mean_total = sum(totals) / repeat
+            row = {"network": name, "particles": len(x), "walls": len(wx),
+                   "ms_per_step": total * 1e3,
+                   "search_ms": parts.get("search", 0) * 1e3,
+                   "geometry_ms": parts.get("geometry", 0) * 1e3,
+                   "convolutions_ms": parts.get("convolutions", 0) * 1e3,
+                   "other_ms": (mean_total - sum(parts.values())) * 1e3,
+                   "peak_mib": mem.peak_mib, "bf16": bf16}
+            rows.append(row)
+            if echo:
+                echo(row)
+    return {"benchmark": "model", "machine": machine_info(), "rows": rows,
+            "note": "no gradients, float32; breakdown = means, ms_per_step = median"}
+
+
+def _fmt_row(r):
+    return (f"{r['network']:13s} {r['particles']:7d} {r['ms_per_step']:9.1f} "
+            f"{r['search_ms']:8.1f} {r['geometry_ms']:9.1f} {r['convolutions_ms']:8.1f} "
+            f"{r['other_ms']:7.1f} {r['peak_mib']:7.0f}")
+
+
+@click.command("model")
+@click.option("--particles", default="1000,10000,50000", show_default=True,
+              help="comma-separated particle counts (3-D)")
+@click.option("--networks", default="dcdc,cconv,dcdc-antisym", show_default=True)
+@click.option("--repeat", default=5, show_default=True)
+@click.option("--bf16/--no-bf16", default=False, show_default=True,
+              help="bf16 GEMMs (AMX) for inference")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
+              help="write results here (e.g. benchmarks/model.json)")
+def model_command(particles, networks, repeat, bf16, json_path):
+    """ms per neural step (search included) per network and particle count."""
+    from ..errors import DcdcError
+
+    try:
+        sizes = [int(s) for s in particles.split(",") if s.strip()]
+    except ValueError:
+        raise DcdcError(f"--particles must be comma-separated integers (got {particles!r})") from None
+    nets = [s.strip() for s in networks.split(",") if s.strip()]
+    info = machine_info()
+    click.echo(f"neural step (Δt = 0.02 s), 3-D, float32{' + bf16 GEMMs' if bf16 else ''}, "
+               f"threads torch {info['torch_threads']} / numba {info['numba_threads']}")
+    click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'search':>8s} {'geometry':>9s} "
+               f"{'convs':>8s} {'other':>7s} {'MiB':>7s}")
+    res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)))
+    _write_json(json_path, res)
