@@ -8,7 +8,7 @@ import numpy as np
 
 
 def _summary(system, scene) -> str:
-    lo, hi = system.domain
+    lo, hi = (np.asarray(c) for c in system.meta.get("scene_domain", system.domain))
     lines = [f"scene     {scene.name} ({system.dim}-D{', cross-section of the 3-D scene' if system.dim < scene.dim else ''})",
              f"about     {scene.data['description']}" if scene.data["description"] else None,
              f"domain    {lo.round(3).tolist()} .. {hi.round(3).tolist()} m",

@@ -41,8 +41,8 @@ def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=
         fig = plt.figure(figsize=(13, 6))
         ax = fig.add_subplot(1, 2, 1, projection="3d")
         zc = 0.5 * (lo[2] + hi[2])
-        back = w[w[:, 2] >= zc]
-        ax.scatter(back[:, 0], back[:, 2], back[:, 1], s=ms * 0.3, c="0.75", alpha=0.25, linewidths=0)
+        back = w[w[:, 2] >= zc]  # the front half of the walls is cut away
+        ax.scatter(back[:, 0], back[:, 2], back[:, 1], s=ms * 0.4, c="0.5", alpha=0.35, linewidths=0)
         ax.scatter(x[:, 0], x[:, 2], x[:, 1], s=ms * 0.5, c=colors, linewidths=0, depthshade=True)
         ax.set_xlabel("x"); ax.set_ylabel("z"); ax.set_zlabel("y")
         ext = (hi - lo).max() / 2

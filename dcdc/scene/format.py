@@ -405,7 +405,10 @@ def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Soli
             inside = (lambda f: lambda x: f(x) > 0)(sdf)
         elif shape == "mesh":
             p = Path(w["file"])
-            if not p.is_absolute():
+            if w["file"].startswith("asset:"):  # a mesh shipped with dcdc (dcdc/assets)
+                from importlib import resources
+                p = Path(str(resources.files("dcdc").joinpath("assets", w["file"][6:])))
+            elif not p.is_absolute():
                 p = (base_dir or Path.cwd()) / p
             if not p.exists():
                 raise DcdcError(f"walls.{name}.file: mesh file {p} not found")
@@ -603,8 +606,8 @@ class Scene:
             dim=dim, radius=r, x=cat(xs, dim), v=cat(vs, dim),
             phase=np.concatenate(ph) if ph else np.zeros(0, int), phases=phases,
             wall_x=wx, wall_n=wn, gravity=np.asarray(s["gravity"], dtype=np.float64),
-            domain=(lo, hi), birth=np.concatenate(births) if births else None, name=self.name,
-            meta={"scene": self.name, "resolution": resolution, "scene_dim": self.dim,
+            domain=(lo - thickness, hi + thickness), birth=np.concatenate(births) if births else None, name=self.name,
+            meta={"scene": self.name, "resolution": resolution, "scene_domain": [lo.tolist(), hi.tolist()], "scene_dim": self.dim,
                   "duration": s["duration"], "frame_dt": s["frame_dt"], "seed": s["seed"]})
         return system
 

@@ -1,0 +1,235 @@
+"""Random training scenes (DESIGN §5): random containers (open boxes, bowls), a few
+obstacles (spheres, cylinders, boxes, shipped meshes), 1-4 fluid blocks of 1-4 phases whose
+densities come from a range with a bounded max/min ratio (the curriculum parameter), and
+random initial velocities. The same seed and settings always give the same scene file.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DcdcError, require
+
+MESH_ASSETS = ("asset:rock.obj", "asset:wedge.obj", "asset:capsule.obj")
+PALETTE = ["#d8322a", "#2fa33a", "#2f58d0", "#f2c230"]
+
+
+@dataclass
+class RandomSceneConfig:
+    """Knobs of :func:`random_scene`.
+
+    max_ratio / min_ratio bound ρ_max/ρ_min of the scene's phases (max_ratio = 1: one
+    density); density_range bounds every density [kg/m³]; duration None draws 2-3 s.
+    """
+
+    dim: int = 2
+    max_ratio: float = 10.0
+    min_ratio: float = 1.0
+    density_range: tuple = (500.0, 5000.0)
+    duration: float | None = None
+    max_blocks: int = 4
+    max_speed: float = 1.0
+    obstacles: bool = True
+    radius: float = 0.025
+
+    def check(self):
+        lo, hi = self.density_range
+        require(self.dim in (2, 3), f"dim must be 2 or 3 (got {self.dim})")
+        require(0 < lo <= hi, f"density range must satisfy 0 < min <= max (got {lo}, {hi})")
+        require(self.max_ratio >= 1, f"--max-ratio must be >= 1 (got {self.max_ratio})")
+        require(1 <= self.min_ratio <= self.max_ratio,
+                f"--min-ratio must lie in [1, max-ratio] (got {self.min_ratio})")
+        require(self.min_ratio <= hi / lo,
+                f"--min-ratio {self.min_ratio} is impossible within densities {lo}..{hi}")
+        require(1 <= self.max_blocks <= 4, "max_blocks must be 1..4")
+        return self
+
+
+def _snap(v, q):
+    return float(np.round(np.round(np.asarray(v) / q) * q, 6))
+
+
+def _densities(rng, n, cfg):
+    lo, hi = cfg.density_range
+    rmax = min(cfg.max_ratio, hi / lo)
+    if n == 1:
+        return [round(float(np.exp(rng.uniform(math.log(lo), math.log(hi)))), 1)]
+    ratio = float(np.exp(rng.uniform(math.log(cfg.min_ratio), math.log(max(rmax, cfg.min_ratio)))))
+    rho_min = float(np.exp(rng.uniform(math.log(lo), math.log(hi / ratio))))
+    rho_max = rho_min * ratio
+    mids = np.exp(rng.uniform(math.log(rho_min), math.log(rho_max), n - 2)).tolist()
+    vals = [rho_min, rho_max] + mids
+    rng.shuffle(vals)
+    return [round(v, 1) for v in vals]
+
+
+def random_scene(seed: int, cfg: RandomSceneConfig | None = None) -> dict:
+    """A random scene as a plain dict in the scene-file layout (validated by realising it)."""
+    from .format import validate, Scene
+    cfg = (cfg or RandomSceneConfig()).check()
+    rng = np.random.default_rng([int(seed), 0xDCDC])
+    d = cfg.dim
+    sp = 2 * cfg.radius
+    for attempt in range(100):
+        try:
+            scene = _draw(rng, seed, cfg, sp)
+            Scene(validate(scene, "", f"random seed {seed}")).realize()
+            return scene
+        except DcdcError:
+            continue  # overlapping draw: try again with the same generator (reproducible)
+    raise DcdcError(f"could not draw a valid random scene for seed {seed} in 100 attempts")
+
+
+def _draw(rng, seed, cfg, sp) -> dict:
+    d = cfg.dim
+    walls, fluid = {}, []
+    container = "bowl" if rng.uniform() < 0.2 else "box"
+    if container == "box":
+        W = _snap(rng.uniform(1.0, 2.0) if d == 2 else rng.uniform(0.8, 1.4), sp)
+        H = _snap(rng.uniform(0.8, 1.4), sp)
+        D = _snap(rng.uniform(0.6, 1.2), sp) if d == 3 else None
+        lo = [0.0, 0.0] + ([0.0] if d == 3 else [])
+        hi = [W, H] + ([D] if d == 3 else [])
+        walls["tank"] = {"shape": "box", "min": lo, "max": hi, "hollow": True}
+        dom_lo, dom_hi = list(lo), [W, H + 1.0] + ([D] if d == 3 else [])
+        region_lo, region_hi = np.array(lo), np.array(hi)
+    else:
+        R = _snap(rng.uniform(0.6, 0.9) if d == 2 else rng.uniform(0.5, 0.7), sp)
+        c = [0.0, 0.0] + ([0.0] if d == 3 else [])
+        walls["bowl"] = {"shape": "bowl", "center": c, "radius": R}
+        dom_lo = [-R - 0.1, -0.2] + ([-R - 0.1] if d == 3 else [])
+        dom_hi = [R + 0.1, R + 1.0] + ([R + 0.1] if d == 3 else [])
+        region_lo = np.array([-R, 0.0] + ([-R] if d == 3 else []))
+        region_hi = np.array([R, R] + ([R] if d == 3 else []))
+    ext = region_hi - region_lo
+    # obstacles in the lower part of the container
+    n_obs = int(rng.integers(0, 3)) if cfg.obstacles else 0
+    obstacle_boxes = []  # generous bounding boxes, kept free of fluid
+    for k in range(n_obs):
+        kind = rng.choice(["sphere", "cylinder", "box", "mesh"])
+        c = region_lo + ext * rng.uniform(0.2, 0.8, d)
+        c[1] = region_lo[1] + ext[1] * rng.uniform(0.1, 0.35)
+        size = float(rng.uniform(0.08, 0.18))
+        c = [round(float(v), 3) for v in c]
+        half = np.full(d, 0.6 if kind == "cylinder" else 1.4 * size) + 2 * sp
+        obstacle_boxes.append((np.array(c) - half, np.array(c) + half))
+        if kind == "sphere":
+            walls[f"obstacle{k}"] = {"shape": "sphere", "center": c, "radius": round(size, 3)}
+        elif kind == "cylinder":
+            walls[f"obstacle{k}"] = {"shape": "cylinder", "center": c, "radius": round(size, 3),
+                                     "height": round(float(rng.uniform(0.2, 0.5)), 3),
+                                     "axis": int(rng.choice([1, 2] if d == 3 else [1]))}
+        elif kind == "box":
+            h = rng.uniform(0.06, 0.18, d)
+            walls[f"obstacle{k}"] = {"shape": "box", "min": [round(float(a - b), 3) for a, b in zip(c, h)],
+                                     "max": [round(float(a + b), 3) for a, b in zip(c, h)]}
+        else:
+            t = c + ([0.0] if d == 2 else [])
+            walls[f"obstacle{k}"] = {"shape": "mesh", "file": str(rng.choice(MESH_ASSETS)),
+                                     "scale": round(size * 1.2, 3), "translate": [round(v, 3) for v in t]}
+            if d == 2:
+                walls[f"obstacle{k}"]["translate"][2] = 0.0
+    # fluid blocks: disjoint lattice-aligned boxes (fills of the bowl)
+    n_phases_min = 2 if cfg.min_ratio > 1 else 1
+    choices = np.arange(max(1, n_phases_min), cfg.max_blocks + 1)
+    weights = np.where(choices == 1, 0.4, 1.0)
+    n_blocks = int(rng.choice(choices, p=weights / weights.sum()))
+    if cfg.max_ratio > 1 and n_blocks >= 2 and (n_phases_min == 2 or rng.uniform() < 0.85):
+        n_phases = int(rng.integers(2, min(n_blocks, 4) + 1))
+    else:
+        n_phases = 1
+    dens = _densities(rng, n_phases, cfg)
+    names = [f"phase{i}" for i in range(n_phases)]
+    phases = {n: {"density": rho, "viscosity": float(f"{np.exp(rng.uniform(np.log(1e-6), np.log(1e-4))):.3g}"),
+                  "color": PALETTE[i]} for i, (n, rho) in enumerate(zip(names, dens))}
+    boxes = []
+    for b in range(n_blocks):
+        for _ in range(30):
+            size = ext * rng.uniform(0.3, 0.7, d)
+            size[1] = ext[1] * rng.uniform(0.25, 0.6)
+            lo = region_lo + (ext - size) * rng.uniform(0, 1, d)
+            lo = np.array([_snap(v, sp) for v in lo])
+            hi = np.array([_snap(v, sp) for v in lo + size])
+            if np.any(hi - lo < 3 * sp):
+                continue
+            if any(np.all(lo < bh) and np.all(hi > bl) for bl, bh in boxes + obstacle_boxes):
+                continue
+            boxes.append((lo, hi))
+            break
+    for i, (lo, hi) in enumerate(boxes):
+        ph = names[i] if i < n_phases else names[int(rng.integers(n_phases))]
+        vel = [round(float(v), 3) for v in rng.uniform(-cfg.max_speed, cfg.max_speed, d)]
+        blk = {"phase": ph, "velocity": vel, "min": [float(v) for v in lo], "max": [float(v) for v in hi]}
+        if container == "box":
+            blk["shape"] = "box"
+        else:
+            blk["shape"] = "fill"
+            blk["inside"] = "bowl"
+        fluid.append(blk)
+    used = {f["phase"] for f in fluid}
+    phases = {k: v for k, v in phases.items() if k in used}
+    if not fluid or len(phases) < n_phases_min:
+        raise DcdcError("no room for the fluid blocks")
+    duration = cfg.duration if cfg.duration is not None else round(float(rng.uniform(2.0, 3.0)) / 0.02) * 0.02
+    ratio = max(p["density"] for p in phases.values()) / min(p["density"] for p in phases.values())
+    return {
+        "name": f"random_{seed}",
+        "description": (f"random scene: seed {seed}, {d}-D, {container}, {len(phases)} phase(s), "
+                        f"density ratio {ratio:.2f} (max-ratio {cfg.max_ratio:g}, min-ratio {cfg.min_ratio:g}, "
+                        f"densities {cfg.density_range[0]:g}..{cfg.density_range[1]:g})"),
+        "dim": d, "radius": cfg.radius, "duration": round(duration, 4), "seed": int(seed),
+        "domain": {"min": dom_lo, "max": dom_hi},
+        "phases": phases, "walls": walls, "fluid": fluid,
+    }
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        r = repr(float(round(float(v), 9)))
+        return r if ("." in r or "e" in r or "inf" in r or "nan" in r) else r + ".0"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(type(v))
+
+
+def to_toml(scene: dict, header: str = "") -> str:
+    """Scene dict -> TOML text in the layout of the built-in scene files (one-line arrays,
+    [section] / [phases.NAME] / [walls.NAME] tables, [[fluid]] / [[emitter]] arrays)."""
+    out = [header] if header else []
+    for k, v in scene.items():
+        if not isinstance(v, (dict, list)) or (isinstance(v, list) and not (v and isinstance(v[0], dict))):
+            out.append(f"{k} = {_toml_value(v)}")
+    for k, v in scene.items():
+        if isinstance(v, dict):
+            nested = v and all(isinstance(x, dict) for x in v.values()) and k != "solver"
+            if nested:
+                for name, t in v.items():
+                    out.append(f"\n[{k}.{name}]")
+                    out += [f"{a} = {_toml_value(b)}" for a, b in t.items()]
+            else:
+                out.append(f"\n[{k}]")
+                out += [f"{a} = {_toml_value(b)}" for a, b in v.items()]
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            for t in v:
+                out.append(f"\n[[{k}]]")
+                out += [f"{a} = {_toml_value(b)}" for a, b in t.items()]
+    return "\n".join(out) + "\n"
+
+
+def random_scene_text(seed: int, cfg: RandomSceneConfig | None = None) -> str:
+    """The scene file text of :func:`random_scene`."""
+    cfg = cfg or RandomSceneConfig()
+    s = random_scene(seed, cfg)
+    hdr = (f"# generated by `dcdc scene random --seed {seed} --dim {cfg.dim} --max-ratio {cfg.max_ratio:g}"
+           f" --min-ratio {cfg.min_ratio:g} --density-range {cfg.density_range[0]:g} {cfg.density_range[1]:g}`")
+    return to_toml(s, hdr)
