@@ -1,0 +1,68 @@
+"""``dcdc dataset``: summarise, merge and export trajectory datasets."""
+from __future__ import annotations
+
+import json
+
+import click
+
+
+@click.group("dataset")
+def dataset_group():
+    """Inspect, merge and export datasets written by `dcdc generate`."""
+
+
+@dataset_group.command("info")
+@click.argument("path", type=click.Path())
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--list", "list_trajs", is_flag=True, help="One line per trajectory.")
+def info_command(path, as_json, list_trajs):
+    """Summarise the dataset at PATH (a directory or a merged .h5 file)."""
+    from .dataset import Dataset
+    ds = Dataset(path)
+    s = ds.summary()
+    if as_json:
+        click.echo(json.dumps(s, indent=1))
+        return
+    click.echo(f"dataset     {s['path']}")
+    click.echo(f"trajectories {s['trajectories']} finished" +
+               (f", {s['incomplete']} unfinished (ignored)" if s["incomplete"] else ""))
+    if s["trajectories"]:
+        click.echo(f"dims        {s['dims']}   splits {s['splits']}")
+        click.echo(f"frames      {s['frames']} in all, dt = {s['frame_dt']} s, radius = {s['radius']} m")
+        click.echo(f"particles   {s['particles_min']} .. {s['particles_max']} fluid per trajectory")
+        click.echo(f"phases      {s['phases_per_traj']} per trajectory, densities "
+                   f"{s['density_range'][0]:g} .. {s['density_range'][1]:g} kg/m³, max ratio "
+                   f"{s['density_ratio_max']:.2f}")
+        click.echo(f"solver      {', '.join(s['solvers'])}")
+        click.echo(f"generation  {s['wall_time_s']:.1f} s of simulation wall time; "
+                   f"{s['bytes'] / 1e6:.1f} MB on disk")
+    if list_trajs:
+        for t in ds:
+            d = sorted(set(t.density.tolist()))
+            click.echo(f"  {t.name:<28} {t.dim}-D {t.n_frames:>4} frames {t.n_particles:>6} particles "
+                       f"densities {', '.join(f'{v:g}' for v in d)}  {float(t.attrs.get('wall_time_s', 0)):.1f} s")
+
+
+@dataset_group.command("merge")
+@click.argument("output", type=click.Path())
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(exists=True))
+@click.option("--overwrite", is_flag=True)
+def merge_command(output, inputs, overwrite):
+    """Join INPUTS (shard directories or .h5 files) into OUTPUT (a .h5 file, or a directory)."""
+    from .dataset import merge
+    n = merge(inputs, output, overwrite)
+    click.echo(f"merged {n} trajectories into {output}")
+
+
+@dataset_group.command("export-lagrangebench")
+@click.option("--train", type=click.Path(exists=True), required=True)
+@click.option("--valid", type=click.Path(exists=True), default=None)
+@click.option("--test", type=click.Path(exists=True), default=None)
+@click.option("-o", "--out", type=click.Path(file_okay=False), required=True)
+def export_lb_command(train, valid, test, out):
+    """Write train/valid/test.h5 + metadata.json in the LagrangeBench layout."""
+    from .lagrangebench import export_lagrangebench
+    splits = {k: v for k, v in (("train", train), ("valid", valid), ("test", test)) if v}
+    meta = export_lagrangebench(splits, out)
+    click.echo(f"wrote {', '.join(f'{k}.h5' for k in splits)} + metadata.json to {out} "
+               f"({meta['num_trajs_train']} train trajectories, {meta['num_particles_max']} particles max)")

@@ -1,0 +1,391 @@
+"""The trajectory dataset (DESIGN §5): HDF5, one group per trajectory.
+
+On disk a dataset is either
+- a **directory** of per-trajectory files ``NAME.h5`` (what ``dcdc generate`` writes: each
+  file is written under a temporary name and renamed when complete, so a killed run never
+  leaves a file that reads as finished) plus an informative ``dataset.json`` index, or
+- a **single file** ``*.h5`` holding many trajectory groups (``dcdc dataset merge``).
+
+Each trajectory group ``/NAME`` holds:
+
+| dataset | shape | dtype | meaning |
+| --- | --- | --- | --- |
+| ``position`` | [T, N, d] | float32 | fluid positions [m] at ``time`` (frame 0 = initial state) |
+| ``velocity`` | [T, N, d] | float32 | fluid velocities [m/s] |
+| ``time`` | [T] | float64 | simulated time of each frame [s] |
+| ``phase`` | [N] | int32 | phase index of each fluid particle |
+| ``density`` | [N] | float32 | rest density ρ₀ of each particle [kg/m³] |
+| ``birth`` | [N] | float32 | emission time (0 = present at t = 0) [s] |
+| ``wall_position``, ``wall_normal`` | [M, d] | float32 | static wall particles, normals into the fluid |
+
+and attributes (metadata): ``dim``, ``radius``, ``frame_dt``, ``n_frames``, ``gravity``,
+``domain_min``/``domain_max``, ``phase_names``/``_densities``/``_viscosities``/``_colors``,
+``units`` (JSON), ``solver``, ``solver_settings`` (JSON), ``scene``, ``scene_toml`` (the full
+scene file), ``scene_dim``, ``resolution``, ``seed``, ``split``, ``dcdc_version``,
+``git_commit``, ``created``, ``wall_time_s``, ``solver_stats`` (JSON) and ``complete`` = 1,
+written last.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DcdcError
+from ..particles import ParticleSystem, Phase
+
+FORMAT = "dcdc-dataset"
+FORMAT_VERSION = 1
+UNITS = {"length": "m", "time": "s", "velocity": "m/s", "density": "kg/m^3",
+         "viscosity": "m^2/s (kinematic)", "gravity": "m/s^2"}
+TMP_MARK = ".tmp-"
+
+
+def _h5():
+    import h5py
+    return h5py
+
+
+def _open(path, mode="r"):
+    h5py = _h5()
+    try:
+        return h5py.File(path, mode)
+    except FileNotFoundError:
+        raise DcdcError(f"{path}: no such file") from None
+    except OSError as e:
+        raise DcdcError(f"{path}: not a readable HDF5 file (truncated or corrupt?): "
+                        f"{str(e).splitlines()[0]}") from None
+
+
+# ------------------------------------------------------------------ writing
+def write_trajectory(path, name: str, frames_x, frames_v, times, system: ParticleSystem,
+                     attrs: dict) -> Path:
+    """Write one trajectory atomically to ``path`` (a ``.h5`` file holding group ``name``):
+    write a temporary file in the same directory, flush, fsync, then rename over ``path``."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
+    try:
+        with _h5().File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["format_version"] = FORMAT_VERSION
+            g = f.create_group(name)
+            write_group(g, frames_x, frames_v, times, system, attrs)
+            f.flush()
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def write_group(g, frames_x, frames_v, times, system: ParticleSystem, attrs: dict) -> None:
+    x = np.asarray(frames_x, dtype=np.float32)
+    v = np.asarray(frames_v, dtype=np.float32)
+    T, N, d = x.shape if x.ndim == 3 else (len(x), 0, system.dim)
+    chunks = (1, max(N, 1), d) if N else None
+    g.create_dataset("position", data=x, chunks=chunks, compression="lzf" if N else None)
+    g.create_dataset("velocity", data=v, chunks=chunks, compression="lzf" if N else None)
+    g.create_dataset("time", data=np.asarray(times, dtype=np.float64))
+    g.create_dataset("phase", data=system.phase.astype(np.int32))
+    g.create_dataset("density", data=system.rest_density.astype(np.float32))
+    g.create_dataset("birth", data=system.birth.astype(np.float32))
+    g.create_dataset("wall_position", data=system.wall_x.astype(np.float32))
+    g.create_dataset("wall_normal", data=system.wall_n.astype(np.float32))
+    meta = {
+        "dim": system.dim, "radius": system.radius, "n_frames": T - 1,
+        "gravity": system.gravity, "domain_min": system.domain[0], "domain_max": system.domain[1],
+        "phase_names": json.dumps([p.name for p in system.phases]),
+        "phase_densities": np.array([p.density for p in system.phases]),
+        "phase_viscosities": np.array([p.viscosity for p in system.phases]),
+        "phase_colors": np.array([p.color for p in system.phases]),
+        "units": json.dumps(UNITS),
+    }
+    meta.update(attrs)
+    for k, val in meta.items():
+        if isinstance(val, (dict, list)):
+            val = json.dumps(val)
+        if val is None:
+            val = ""
+        g.attrs[k] = val
+    g.attrs["complete"] = 1  # last: a group without it is never read as finished
+
+
+def is_complete(path) -> bool:
+    """True when ``path`` is a finished trajectory file (readable, every group complete)."""
+    try:
+        with _h5().File(path, "r") as f:
+            groups = [f[k] for k in f.keys()]
+            return bool(groups) and all(int(g.attrs.get("complete", 0)) == 1 for g in groups)
+    except Exception:
+        return False
+
+
+# ------------------------------------------------------------------ reading
+@dataclass
+class _Ref:
+    file: Path
+    group: str
+
+
+class Trajectory:
+    """One trajectory. Arrays are read from disk on first access and cached."""
+
+    def __init__(self, ref: _Ref):
+        self.ref = ref
+        self.name = ref.group
+        with _open(ref.file) as f:
+            if ref.group not in f:
+                raise DcdcError(f"{ref.file}: no trajectory group {ref.group!r}")
+            g = f[ref.group]
+            missing = [k for k in ("position", "velocity", "phase", "wall_position") if k not in g]
+            if missing:
+                raise DcdcError(f"{ref.file}: trajectory {ref.group} lacks {', '.join(missing)}")
+            self.attrs = {k: _attr(v) for k, v in g.attrs.items()}
+            self.shape = g["position"].shape
+        self._cache = {}
+
+    # metadata
+    @property
+    def dim(self) -> int:
+        return int(self.attrs["dim"])
+
+    @property
+    def radius(self) -> float:
+        return float(self.attrs["radius"])
+
+    @property
+    def frame_dt(self) -> float:
+        return float(self.attrs["frame_dt"])
+
+    @property
+    def n_frames(self) -> int:
+        """Number of stored frames T (initial state included)."""
+        return int(self.shape[0])
+
+    @property
+    def n_particles(self) -> int:
+        return int(self.shape[1])
+
+    @property
+    def gravity(self) -> np.ndarray:
+        return np.asarray(self.attrs["gravity"], dtype=np.float64)
+
+    @property
+    def phases(self) -> list[Phase]:
+        names = json.loads(self.attrs["phase_names"])
+        return [Phase(n, float(d), float(v), tuple(float(c) for c in col)) for n, d, v, col in
+                zip(names, self.attrs["phase_densities"], self.attrs["phase_viscosities"],
+                    self.attrs["phase_colors"])]
+
+    def _get(self, key, sl=None):
+        if sl is None and key in self._cache:
+            return self._cache[key]
+        with _open(self.ref.file) as f:
+            try:
+                ds = f[self.ref.group][key]
+                arr = ds[()] if sl is None else ds[sl]
+            except (KeyError, OSError) as e:
+                raise DcdcError(f"{self.ref.file}: cannot read {self.ref.group}/{key} "
+                                f"(truncated or corrupt?): {str(e).splitlines()[0]}") from None
+        if sl is None:
+            self._cache[key] = arr
+        return arr
+
+    position = property(lambda self: self._get("position"))
+    velocity = property(lambda self: self._get("velocity"))
+    time = property(lambda self: self._get("time"))
+    phase = property(lambda self: self._get("phase"))
+    density = property(lambda self: self._get("density"))
+    birth = property(lambda self: self._get("birth"))
+    wall_x = property(lambda self: self._get("wall_position"))
+    wall_n = property(lambda self: self._get("wall_normal"))
+
+    def window(self, start: int, length: int) -> dict:
+        """Frames ``start .. start+length-1``: position/velocity [L, N, d] plus the static
+        per-particle arrays (a training sample for an unrolled loss)."""
+        if not (0 <= start and start + length <= self.n_frames):
+            raise DcdcError(f"window {start}..{start + length - 1} outside {self.name} "
+                            f"(frames 0..{self.n_frames - 1})")
+        sl = slice(start, start + length)
+        return {"position": self._get("position", sl), "velocity": self._get("velocity", sl),
+                "time": self.time[sl], "phase": self.phase, "density": self.density,
+                "birth": self.birth, "wall_position": self.wall_x, "wall_normal": self.wall_n,
+                "gravity": self.gravity, "radius": self.radius, "frame_dt": self.frame_dt}
+
+    def system(self, frame: int = 0) -> ParticleSystem:
+        """The state at ``frame`` as a :class:`ParticleSystem` (e.g. to start a rollout)."""
+        x = self._get("position", frame).astype(np.float64)
+        v = self._get("velocity", frame).astype(np.float64)
+        return ParticleSystem(self.dim, self.radius, x, v, self.phase, self.phases,
+                              self.wall_x, self.wall_n, self.gravity,
+                              (self.attrs["domain_min"], self.attrs["domain_max"]),
+                              self.birth.astype(np.float64), self.attrs.get("scene", self.name),
+                              {"trajectory": self.name, "frame": frame})
+
+    def __repr__(self):
+        return (f"Trajectory({self.name!r}, {self.dim}-D, {self.n_frames} frames, "
+                f"{self.n_particles} fluid particles)")
+
+
+def _attr(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _scan(path: Path) -> tuple[list[_Ref], list[str]]:
+    """Trajectory references in a dataset directory or file, and names of unfinished ones."""
+    refs, incomplete = [], []
+    if path.is_dir():
+        for p in sorted(path.glob("*.h5")):
+            if p.name.startswith("."):
+                continue
+            with _open(p) as f:
+                for k in f.keys():
+                    if int(f[k].attrs.get("complete", 0)) == 1:
+                        refs.append(_Ref(p, k))
+                    else:
+                        incomplete.append(k)
+        incomplete += [p.name for p in path.glob(f".*.h5{TMP_MARK}*")]
+    elif path.is_file():
+        with _open(path) as f:
+            if f.attrs.get("format", FORMAT) != FORMAT and "format" in f.attrs:
+                raise DcdcError(f"{path}: not a dcdc dataset (format {f.attrs['format']!r})")
+            for k in sorted(f.keys()):
+                if int(f[k].attrs.get("complete", 0)) == 1:
+                    refs.append(_Ref(path, k))
+                else:
+                    incomplete.append(k)
+    else:
+        raise DcdcError(f"{path}: no such dataset (directory or .h5 file)")
+    return refs, incomplete
+
+
+class Dataset:
+    """A dcdc trajectory dataset (directory of trajectory files or one merged file).
+
+    ```python
+    ds = Dataset("datasets/2d/train")
+    for traj in ds.trajectories(): ...
+    for i, start in ds.windows(length=3): sample = ds[i].window(start, 3)
+    ```
+    Unfinished trajectories (temporary files, groups without ``complete``) are skipped and
+    listed in :attr:`incomplete`.
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self._refs, self.incomplete = _scan(self.path)
+        self._trajs: dict[str, Trajectory] = {}
+        names = [r.group for r in self._refs]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise DcdcError(f"{self.path}: trajectory name(s) {', '.join(sorted(dup))} appear twice")
+
+    @property
+    def names(self) -> list[str]:
+        return [r.group for r in self._refs]
+
+    def __len__(self) -> int:
+        return len(self._refs)
+
+    def __getitem__(self, key) -> Trajectory:
+        if isinstance(key, str):
+            if key not in self.names:
+                raise DcdcError(f"{self.path}: no trajectory {key!r}")
+            key = self.names.index(key)
+        ref = self._refs[key]
+        if ref.group not in self._trajs:
+            self._trajs[ref.group] = Trajectory(ref)
+        return self._trajs[ref.group]
+
+    def __iter__(self):
+        return (self[i] for i in range(len(self)))
+
+    def trajectories(self):
+        return iter(self)
+
+    def windows(self, length: int, stride: int = 1) -> list[tuple[int, int]]:
+        """All (trajectory index, start frame) pairs of windows of ``length`` frames."""
+        out = []
+        for i in range(len(self)):
+            T = self[i].n_frames
+            out += [(i, s) for s in range(0, T - length + 1, stride)]
+        return out
+
+    def summary(self) -> dict:
+        trajs = list(self)
+        dims = sorted({t.dim for t in trajs})
+        ratios = []
+        for t in trajs:
+            d = np.unique(t.density)
+            ratios.append(float(d.max() / d.min()) if len(d) else 1.0)
+        return {
+            "path": str(self.path), "trajectories": len(trajs), "incomplete": len(self.incomplete),
+            "dims": dims, "frames": int(sum(t.n_frames for t in trajs)),
+            "particles_min": int(min((t.n_particles for t in trajs), default=0)),
+            "particles_max": int(max((t.n_particles for t in trajs), default=0)),
+            "frame_dt": sorted({t.frame_dt for t in trajs}),
+            "radius": sorted({t.radius for t in trajs}),
+            "solvers": sorted({str(t.attrs.get("solver", "?")) for t in trajs}),
+            "splits": sorted({str(t.attrs.get("split", "")) for t in trajs}),
+            "phases_per_traj": sorted({len(t.phases) for t in trajs}),
+            "density_ratio_max": max(ratios, default=1.0),
+            "density_range": [float(min((t.density.min() for t in trajs if t.n_particles), default=0)),
+                              float(max((t.density.max() for t in trajs if t.n_particles), default=0))],
+            "wall_time_s": float(sum(float(t.attrs.get("wall_time_s", 0) or 0) for t in trajs)),
+            "bytes": int(sum(p.stat().st_size for p in {r.file for r in self._refs})),
+        }
+
+
+def merge(inputs, output, overwrite: bool = False) -> int:
+    """Join datasets (directories or files, e.g. shards) into ``output``: a single ``.h5``
+    file (written to a temporary name, then renamed) or, for any other name, a directory of
+    trajectory files. Duplicate trajectory names are an error. Returns the count."""
+    import shutil
+    output = Path(output)
+    sets = [Dataset(p) for p in inputs]
+    names = [n for s in sets for n in s.names]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise DcdcError(f"trajectory name(s) in more than one input: {', '.join(dup[:5])}")
+    if output.exists() and not overwrite:
+        raise DcdcError(f"{output} exists (use --overwrite)")
+    if output.suffix == ".h5":
+        tmp = output.with_name(f".{output.name}{TMP_MARK}{os.getpid()}")
+        try:
+            with _h5().File(tmp, "w") as out:
+                out.attrs["format"] = FORMAT
+                out.attrs["format_version"] = FORMAT_VERSION
+                for s in sets:
+                    for ref in s._refs:
+                        with _open(ref.file) as f:
+                            f.copy(f[ref.group], out, name=ref.group)
+            os.replace(tmp, output)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+    else:
+        output.mkdir(parents=True, exist_ok=True)
+        for s in sets:
+            for ref in s._refs:
+                dst = output / f"{ref.group}.h5"
+                if s.path.is_dir():
+                    tmp = dst.with_name(f".{dst.name}{TMP_MARK}{os.getpid()}")
+                    shutil.copyfile(ref.file, tmp)
+                    os.replace(tmp, dst)
+                else:
+                    tmp = dst.with_name(f".{dst.name}{TMP_MARK}{os.getpid()}")
+                    with _open(ref.file) as f, _h5().File(tmp, "w") as out:
+                        out.attrs["format"] = FORMAT
+                        out.attrs["format_version"] = FORMAT_VERSION
+                        f.copy(f[ref.group], out, name=ref.group)
+                    os.replace(tmp, dst)
+    return len(names)

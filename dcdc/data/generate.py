@@ -1,0 +1,404 @@
+"""``dcdc generate``: run the SPH solver on scenes and write a trajectory dataset.
+
+Design (resumable, shardable, never half-written):
+- The job list is deterministic: the scenes in the order given (each in the requested
+  dimension), or ``--random N --seed S`` = random scenes with seeds S, S+1, ..., S+N-1.
+- ``--shard i/n`` keeps jobs j with j mod n == i, so n machines (or batch-array tasks)
+  split the work without talking to each other; merge the outputs with
+  ``dcdc dataset merge``.
+- Each trajectory becomes its own file ``OUT/NAME.h5``: written to ``.NAME.h5.tmp-PID``,
+  flushed, fsynced and renamed (atomic on POSIX), with a ``complete`` attribute set last.
+  A killed run leaves at most a temporary file, which readers ignore and the next run
+  deletes. Re-running the same command skips every finished trajectory (and, unless
+  ``--retry-failed``, every diverged one, recorded as ``NAME.failed.json``).
+- ``OUT/dataset.json`` (an index: command, settings, trajectories, timing) is rewritten
+  atomically at the end of each run; readers never depend on it.
+- ``--workers W`` runs W scenes at once in spawned processes; each sets its numba thread
+  count to max(1, cores // W) so the machine is not oversubscribed.
+"""
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import click
+import numpy as np
+
+from ..errors import DcdcError, SimulationDiverged
+from .dataset import TMP_MARK, is_complete, write_trajectory
+
+
+@dataclass
+class Job:
+    """One trajectory to generate."""
+
+    name: str
+    scene_text: str
+    source: str  # "builtin:NAME", a file path, or "random:SEED"
+    dim: int
+    resolution: float = 1.0
+    seed: int = 0
+    duration: float | None = None
+    split: str = ""
+    solver_overrides: dict | None = None
+
+
+# ------------------------------------------------------------------ stand-in simulator
+class BallisticSimulator:
+    """A stand-in for the SPH solver that moves particles ballistically (free fall). For
+    testing the pipeline only (``--simulator ballistic``); ``DCDC_BALLISTIC_DELAY`` adds a
+    sleep per frame so tests can kill a run mid-trajectory."""
+
+    name = "ballistic (pipeline test stand-in, not physics)"
+
+    def __init__(self, system, settings: dict | None = None):
+        self.system = system
+        self.time = 0.0
+        self.stats = {"substeps": 1}
+        self.settings = dict(settings or {})
+        self.delay = float(os.environ.get("DCDC_BALLISTIC_DELAY", "0") or 0)
+
+    def advance(self, dt: float) -> dict:
+        s = self.system
+        active = s.birth <= self.time
+        s.x[active] += dt * s.v[active] + 0.5 * dt * dt * s.gravity
+        s.v[active] += dt * s.gravity
+        self.time += dt
+        if self.delay:
+            time.sleep(self.delay)
+        return self.stats
+
+
+def make_simulator(kind: str, system, solver_settings: dict):
+    """(simulator, solver name, settings dict actually used)."""
+    if kind == "ballistic":
+        return BallisticSimulator(system, solver_settings), BallisticSimulator.name, dict(solver_settings)
+    if kind != "sph":
+        raise DcdcError(f"unknown simulator {kind!r} (sph or ballistic)")
+    from ..sph import SPHConfig, Simulator
+    cfg = SPHConfig.from_dict(solver_settings)
+    sim = Simulator(system, cfg)
+    return sim, f"dcdc.sph ({cfg.solver})", cfg.to_dict()
+
+
+# ------------------------------------------------------------------ job list
+def _code_version() -> tuple[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        v = version("dcdc")
+    except PackageNotFoundError:
+        v = "unknown"
+    commit = ""
+    try:
+        here = Path(__file__).resolve().parent
+        r = subprocess.run(["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True,
+                           text=True, timeout=5)
+        if r.returncode == 0:
+            commit = r.stdout.strip()
+            d = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--", str(here.parent)],
+                               capture_output=True, text=True, timeout=5)
+            if d.stdout.strip():
+                commit += "+dirty"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return v, commit
+
+
+def scene_jobs(scenes, dim: int | None = None, resolution: float = 1.0,
+               duration: float | None = None, split: str = "", solver_overrides=None) -> list[Job]:
+    """Jobs for built-in scene names / scene files."""
+    from ..scene import builtin_names, builtin_text, get_scene
+    jobs = []
+    for s in scenes:
+        sc = get_scene(s)  # validates now, before any worker starts
+        d = dim or sc.dim
+        if d > sc.dim:
+            raise DcdcError(f"scene {sc.name} is {sc.dim}-D; it has no {d}-D variant")
+        text = builtin_text(s) if str(s) in builtin_names() else Path(s).read_text()
+        name = f"{sc.name}_{d}d" + (f"_res{resolution:g}" if resolution != 1 else "")
+        jobs.append(Job(name, text, f"builtin:{s}" if sc.builtin else str(Path(s).resolve()),
+                        d, resolution, int(sc.data["seed"]), duration, split, solver_overrides))
+    return jobs
+
+
+def random_jobs(n: int, seed: int, cfg, duration: float | None = None, split: str = "",
+                solver_overrides=None) -> list[Job]:
+    """Jobs for ``n`` random scenes with seeds seed .. seed+n-1 (see dcdc.scene.random)."""
+    from ..scene.random import random_scene_text
+    jobs = []
+    for k in range(n):
+        s = seed + k
+        text = random_scene_text(s, cfg)
+        jobs.append(Job(f"random_{s}_{cfg.dim}d", text, f"random:{s}", cfg.dim, 1.0, s, duration,
+                        split, solver_overrides))
+    return jobs
+
+
+def parse_shard(shard: str | None) -> tuple[int, int]:
+    if not shard:
+        return 0, 1
+    try:
+        i, n = (int(p) for p in shard.split("/"))
+    except ValueError:
+        raise DcdcError(f"--shard must look like i/n, e.g. 0/4 (got {shard!r})") from None
+    if not (n >= 1 and 0 <= i < n):
+        raise DcdcError(f"--shard {shard}: need 0 <= i < n")
+    return i, n
+
+
+# ------------------------------------------------------------------ one trajectory
+_progress_queue = None
+
+
+def _init_worker(threads: int, queue) -> None:
+    global _progress_queue
+    _progress_queue = queue
+    os.environ["NUMBA_NUM_THREADS"] = str(threads)
+    os.environ["OMP_NUM_THREADS"] = str(threads)
+    try:
+        import numba
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    except Exception:  # pragma: no cover - numba always present in this project
+        pass
+
+
+def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
+            code_version=("", "")) -> dict:
+    """Simulate one job and write ``out_dir/NAME.h5`` atomically. Returns a result record."""
+    from ..scene import parse
+    out_dir = Path(out_dir)
+    progress = progress or (_progress_queue.put if _progress_queue is not None else None)
+    t0 = time.time()
+    final = out_dir / f"{job.name}.h5"
+    for stale in out_dir.glob(f".{job.name}.h5{TMP_MARK}*"):
+        stale.unlink(missing_ok=True)  # left by a killed run of this same job
+    rec = {"name": job.name, "source": job.source, "dim": job.dim, "seed": job.seed}
+    try:
+        scene = parse(job.scene_text, job.source)
+        system = scene.realize(dim=job.dim, resolution=job.resolution)
+        settings = {**scene.solver, **(job.solver_overrides or {})}
+        sim, solver_name, settings_used = make_simulator(simulator, system, settings)
+        duration = job.duration if job.duration is not None else scene.duration
+        fdt = scene.frame_dt
+        n_frames = int(round(duration / fdt))
+        T = n_frames + 1
+        xs = np.empty((T,) + system.x.shape, dtype=np.float32)
+        vs = np.empty_like(xs)
+        xs[0], vs[0] = system.x, system.v
+        times = fdt * np.arange(T)
+        substeps = 0
+        for k in range(1, T):
+            st = sim.advance(fdt) or getattr(sim, "stats", {})
+            substeps += int(st.get("substeps", 0)) if isinstance(st, dict) else 0
+            xs[k], vs[k] = sim.system.x, sim.system.v
+            if progress:
+                progress(1)
+        wall = time.time() - t0
+        attrs = {
+            "name": job.name, "scene": scene.name, "scene_toml": job.scene_text, "source": job.source,
+            "scene_dim": scene.dim, "resolution": job.resolution, "seed": job.seed,
+            "split": job.split, "frame_dt": fdt, "duration": n_frames * fdt,
+            "solver": solver_name, "solver_settings": json.dumps(settings_used, sort_keys=True),
+            "solver_stats": json.dumps({"substeps_total": substeps,
+                                        "last": _jsonable(getattr(sim, "stats", {}))}),
+            "dcdc_version": code_version[0], "git_commit": code_version[1],
+            "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "host": socket.gethostname(), "wall_time_s": wall,
+        }
+        write_trajectory(final, job.name, xs, vs, times, system, attrs)
+        (out_dir / f"{job.name}.failed.json").unlink(missing_ok=True)
+        rec.update(status="ok", frames=n_frames, particles=system.n_fluid, walls=system.n_wall,
+                   wall_time_s=round(wall, 3), s_per_frame=round(wall / max(n_frames, 1), 4))
+    except SimulationDiverged as e:
+        rec.update(status="failed", error=str(e), wall_time_s=round(time.time() - t0, 3))
+        _write_json(out_dir / f"{job.name}.failed.json", rec)
+    return rec
+
+
+def _jsonable(d):
+    try:
+        return json.loads(json.dumps(d, default=float))
+    except (TypeError, ValueError):
+        return {}
+
+
+def _write_json(path: Path, obj) -> None:
+    tmp = path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
+    tmp.write_text(json.dumps(obj, indent=1, sort_keys=True))
+    os.replace(tmp, path)
+
+
+# ------------------------------------------------------------------ the run
+def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = None,
+             simulator: str = "sph", retry_failed: bool = False, progress: bool = True,
+             command: str = "", frames_of=None) -> dict:
+    """Generate every job of this shard not yet finished in ``out_dir``. Returns a summary
+    (counts of done / skipped / failed, timing). Jobs that diverge are recorded, the rest go on."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = [j.name for j in jobs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise DcdcError(f"two jobs would write the same trajectory: {', '.join(dup)}")
+    i, n = parse_shard(shard)
+    mine = [j for k, j in enumerate(jobs) if k % n == i]
+    todo, skipped = [], []
+    for j in mine:
+        if is_complete(out_dir / f"{j.name}.h5"):
+            skipped.append(j.name)
+        elif (out_dir / f"{j.name}.failed.json").exists() and not retry_failed:
+            skipped.append(j.name)
+        else:
+            todo.append(j)
+    version = _code_version()
+
+    def frames(j):
+        if frames_of:
+            return frames_of(j)
+        if j.duration is not None:
+            return int(round(j.duration / 0.02))
+        import tomllib
+        d = tomllib.loads(j.scene_text)
+        return int(round(d.get("duration", 2.0) / d.get("frame_dt", 0.02)))
+    total = sum(frames(j) for j in todo)
+    from tqdm import tqdm
+    bar = tqdm(total=total, unit="frame", disable=not progress, dynamic_ncols=True,
+               desc=f"{len(todo)} trajectories" + (f" (shard {i}/{n})" if n > 1 else ""))
+    results = []
+    t0 = time.time()
+    workers = max(1, min(workers, len(todo))) if todo else 1
+    try:
+        if workers == 1:
+            for j in todo:
+                results.append(run_job(j, out_dir, simulator, bar.update, version))
+                bar.set_postfix_str(f"done {len(results)}/{len(todo)}")
+        else:
+            import multiprocessing as mp
+            import threading
+            ctx = mp.get_context("spawn")
+            manager = ctx.Manager()
+            queue = manager.Queue()
+            stop = threading.Event()
+
+            def drain():
+                while not stop.is_set():
+                    try:
+                        bar.update(queue.get(timeout=0.2))
+                    except Exception:
+                        pass
+            th = threading.Thread(target=drain, daemon=True)
+            th.start()
+            threads = max(1, (os.cpu_count() or 1) // workers)
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+                                     initargs=(threads, queue)) as pool:
+                futs = {pool.submit(run_job, j, out_dir, simulator, None, version): j for j in todo}
+                for fut in as_completed(futs):
+                    results.append(fut.result())
+                    bar.set_postfix_str(f"done {len(results)}/{len(todo)}")
+            stop.set()
+            th.join()
+            manager.shutdown()
+    finally:
+        bar.close()
+    summary = {
+        "command": command, "out": str(out_dir), "shard": f"{i}/{n}", "workers": workers,
+        "simulator": simulator, "jobs_in_shard": len(mine), "skipped": len(skipped),
+        "done": sum(r["status"] == "ok" for r in results),
+        "failed": [r for r in results if r["status"] != "ok"],
+        "wall_time_s": round(time.time() - t0, 2), "results": results,
+    }
+    _write_index(out_dir, summary)
+    return summary
+
+
+def _write_index(out_dir: Path, summary: dict) -> None:
+    """dataset.json: finished trajectories on disk plus a log of the runs (informative)."""
+    idx_path = out_dir / "dataset.json"
+    try:
+        idx = json.loads(idx_path.read_text()) if idx_path.exists() else {}
+    except (OSError, ValueError):
+        idx = {}
+    runs = idx.get("runs", [])
+    runs.append({k: v for k, v in summary.items() if k != "results"}
+                | {"finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                   "per_trajectory": [{k: r.get(k) for k in ("name", "status", "particles", "frames",
+                                                             "wall_time_s", "s_per_frame")}
+                                      for r in summary["results"]]})
+    done = sorted(p.name[:-3] for p in out_dir.glob("*.h5") if not p.name.startswith("."))
+    _write_json(idx_path, {"format": "dcdc-dataset", "trajectories": done, "runs": runs[-50:]})
+
+
+# ------------------------------------------------------------------ CLI
+@click.command("generate")
+@click.argument("scenes", nargs=-1)
+@click.option("-o", "--out", "out", type=click.Path(file_okay=False), required=True,
+              help="Dataset directory (one NAME.h5 per trajectory).")
+@click.option("--random", "n_random", type=int, default=0, help="Generate N random scenes instead.")
+@click.option("--seed", type=int, default=0, show_default=True, help="First random-scene seed.")
+@click.option("--dim", type=click.IntRange(2, 3), default=None,
+              help="Dimension (default: the scene's; 2 = cross-section of a 3-D scene; random: 2).")
+@click.option("--resolution", type=float, default=1.0, show_default=True,
+              help="Scene length scale at fixed particle radius (built-in / file scenes).")
+@click.option("--max-ratio", type=float, default=10.0, show_default=True, help="Random scenes: max density ratio.")
+@click.option("--min-ratio", type=float, default=1.0, show_default=True, help="Random scenes: min density ratio.")
+@click.option("--density-range", type=(float, float), default=(500.0, 5000.0), show_default=True)
+@click.option("--duration", type=float, default=None, help="Override every scene's duration [s].")
+@click.option("--split", default="", help="Label stored with each trajectory (train/valid/test).")
+@click.option("--workers", type=int, default=1, show_default=True, help="Scenes simulated in parallel.")
+@click.option("--shard", default=None, help="i/n: do only jobs j with j mod n == i.")
+@click.option("--sph", "sph_set", multiple=True, metavar="KEY=VALUE",
+              help="Override a solver setting (repeatable), e.g. --sph cfl=0.3.")
+@click.option("--simulator", type=click.Choice(["sph", "ballistic"]), default="sph", show_default=True,
+              help="ballistic = free-fall stand-in for testing the pipeline only.")
+@click.option("--retry-failed", is_flag=True, help="Re-run trajectories that diverged before.")
+@click.option("--no-progress", is_flag=True)
+def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, min_ratio,
+                     density_range, duration, split, workers, shard, sph_set, simulator,
+                     retry_failed, no_progress):
+    """Simulate SCENES (built-in names or .toml files) or --random N scenes into a dataset.
+
+    Re-running the same command resumes: finished trajectories are skipped.
+    """
+    overrides = {}
+    for kv in sph_set:
+        if "=" not in kv:
+            raise DcdcError(f"--sph expects KEY=VALUE (got {kv!r})")
+        k, v = kv.split("=", 1)
+        try:
+            overrides[k] = json.loads(v)
+        except ValueError:
+            overrides[k] = v
+    if workers < 1:
+        raise DcdcError("--workers must be >= 1")
+    if bool(scenes) == bool(n_random):
+        raise DcdcError("give scene names/files or --random N (not both, not neither)")
+    if n_random:
+        from ..scene.random import RandomSceneConfig
+        cfg = RandomSceneConfig(dim=dim or 2, max_ratio=max_ratio, min_ratio=min_ratio,
+                                density_range=tuple(density_range))
+        cfg.check()
+        jobs = random_jobs(n_random, seed, cfg, duration, split, overrides or None)
+    else:
+        jobs = scene_jobs(scenes, dim, resolution, duration, split, overrides or None)
+    if simulator == "sph" and overrides:
+        from ..sph import SPHConfig
+        SPHConfig.from_dict(overrides)  # fail fast on a typo
+    summary = generate(jobs, out, workers, shard, simulator, retry_failed, not no_progress,
+                       command=" ".join(["dcdc", "generate"] + sys.argv[2:]))
+    ok = [r for r in summary["results"] if r["status"] == "ok"]
+    rate = (f", {np.mean([r['wall_time_s'] for r in ok]):.1f} s per trajectory "
+            f"({np.mean([r['s_per_frame'] for r in ok]):.3f} s/frame)") if ok else ""
+    click.echo(f"{summary['done']} written, {summary['skipped']} already done, "
+               f"{len(summary['failed'])} failed, in {summary['wall_time_s']:.1f} s{rate} -> {out}")
+    for r in summary["failed"]:
+        click.echo(f"  failed {r['name']}: {r.get('error')}", err=True)
+    if summary["failed"]:
+        raise DcdcError(f"{len(summary['failed'])} trajectory(ies) diverged "
+                        f"(recorded as NAME.failed.json; --retry-failed re-runs them)")
