@@ -345,7 +345,8 @@ def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
     out = torch.empty(R, cout, dtype=F.dtype)
     if R == 0:
         return out
-    if cout * V < cin * R:  # collect: filter first, intermediate [V, cells·Cout]
+    if 4 * cout * V <= cin * R:  # collect: filter first, intermediate [V, cells·Cout]
+        # (only when clearly narrower: it is not chunked, the spread path is cache-blocked)
         W2 = W.detach().permute(1, 0, 2).reshape(cin, ncell * cout)
         H = _mm(F.detach(), W2, gemm_dtype).contiguous()
         _collect(geom.row_splits, geom.src, geom.cells, w, H.numpy(), out.numpy())

@@ -94,5 +94,13 @@ class AntisymCConvLayer(CConvLayer):
         if self.modulation is None:
             rows = features[plan._recv_t.to(features.device)] + features[plan._send_t.to(features.device)]
             return self.conv(rows, plan.edge_geom)
+        if plan.mode == "classes":
+            # exact split of the per-edge sum, without E × C rows (see DensityPlan.symmetric_split)
+            rows, pgeom, h, S = plan.symmetric_split(features, self.modulation, embedding)
+            W = self.filter()  # [cells, C_in, C_out]
+            n, P, cin = h.shape
+            hw = (h.reshape(n * P, cin) @ W.permute(1, 0, 2).reshape(cin, -1))
+            self_term = torch.einsum("icb,ibco->io", S, hw.reshape(n, P, W.shape[0], -1))
+            return self.conv(rows, pgeom) + self_term
         rows, egeom = plan.symmetric_edges(features, self.modulation, embedding)
         return self.conv(rows, egeom)

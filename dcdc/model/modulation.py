@@ -33,7 +33,7 @@ import torch
 from torch import nn
 
 from ..particles import RHO_REF
-from .cconv import ConvGeometry
+from .cconv import ConvGeometry, _spread
 
 
 def mlp(sizes: list[int]) -> nn.Sequential:
@@ -191,3 +191,38 @@ class DensityPlan:
         e = self._embed(embedding, f, self.rho)
         gam, bet = mod(e[i], e[j], eref)
         return gam * pair + bet, self.edge_geom
+
+    def class_window_sums(self, like: torch.Tensor) -> torch.Tensor:
+        """S[i, c, b] = Σ_{j ∈ N(i), class(j) = b} Σ_k [cell_k = c]·weight_k   [R, cells, P]."""
+        key = (like.dtype, str(like.device))
+        cache = self.__dict__.setdefault("_sums", {})
+        if key not in cache:
+            g = self.geom
+            P = len(self.uniq)
+            npdt = torch.empty(0, dtype=like.dtype).numpy().dtype
+            onehot = np.zeros((g.n_send, P), dtype=npdt)
+            onehot[np.arange(g.n_send), self.cls] = 1.0
+            S = np.empty((g.n_recv, g.n_cells * P), dtype=npdt)
+            if g.n_recv:
+                _spread(g.row_splits, g.sender, g.cells, g.weights_as(like.dtype), onehot, 0,
+                        g.n_recv, S)
+            cache[key] = torch.from_numpy(S).reshape(g.n_recv, g.n_cells, P).to(like.device)
+        return cache[key]
+
+    def symmetric_split(self, f: torch.Tensor, mod: PairModulation, embedding: DensityEmbedding):
+        """Γˢ_ij split for the class path: γˢ_ij ⊙ f_j (per virtual sender) + h_i,class(j).
+
+        Returns (rows [U, C], pair geometry, h [R, P, C], S [R, cells, P]) with
+        h[i, b] = γˢ(a_i, b) ⊙ f_i + βˢ(a_i, b), so that
+        Σ_j g(u_ij)ᵀ Γˢ_ij = conv(rows) + Σ_{c,b} S[i,c,b]·(h[i,b] @ W_c).
+        """
+        if self.mode != "classes":
+            raise ValueError("symmetric_split needs the classes plan")
+        e = self._embed(embedding, f, self.uniq)
+        gam, bet = mod(e[:, None, :], e[None, :, :], embedding.reference(f))  # [P, P, C]
+        dev = f.device
+        a, jc, j = self._pc.to(dev), self._pjc.to(dev), self._pj.to(dev)
+        rows = gam[a, jc] * f[j]
+        ci = torch.from_numpy(self.cls.astype(np.int64)).to(dev)
+        h = gam[ci] * f[:, None, :] + bet[ci]  # [R, P, C]
+        return rows, self.pair_geom, h, self.class_window_sums(f)
