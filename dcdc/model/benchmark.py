@@ -8,7 +8,8 @@
   gradients) for 1 k / 10 k / 50 k particles in 3-D for each network, with the breakdown
   search / geometry / convolutions (all network layers) / other, peak memory and threads.
 
-Timings are medians of ``--repeat`` runs after a warm-up. Peak memory is the peak rise of
+Timings are the best of ``--repeat`` runs after a warm-up (the machine is shared; the
+median is reported beside it for the whole step). Peak memory is the peak rise of
 the process's resident set during the measured runs (sampled every 2 ms). Optional: run with
 ``LD_PRELOAD=/usr/lib/x86_64-linux-gnu/libtcmalloc_minimal.so.4`` (Debian package
 ``libtcmalloc-minimal4``) — the CConv path reuses its buffers, so the gain is small.
@@ -64,13 +65,14 @@ class PeakRSS:
         self.peak_mib = (self._max - self._base) / 2 ** 20
 
 
-def _median_time(fn, repeat: int) -> float:
+def _best_time(fn, repeat: int) -> float:
+    """Best of ``repeat`` runs: the machine is shared, so the minimum is the stable statistic."""
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    return min(times)
 
 
 def lattice(n: int, dim: int = 3, seed: int = 0, jitter: float = 0.2) -> np.ndarray:
@@ -105,7 +107,7 @@ def run_cconv(particles: int = 30000, channels: int = 64, kernel_size: int = 4,
     x = lattice(particles)
     n = len(x)
     geom = build_geometry(x, radius=R, kernel_size=kernel_size)
-    t_geom = _median_time(lambda: build_geometry(x, radius=R, kernel_size=kernel_size), repeat)
+    t_geom = _best_time(lambda: build_geometry(x, radius=R, kernel_size=kernel_size), repeat)
     ncell = kernel_size ** 3
     torch.manual_seed(0)
     F = torch.randn(n, channels, requires_grad=True)
@@ -115,8 +117,8 @@ def run_cconv(particles: int = 30000, channels: int = 64, kernel_size: int = 4,
     # GEMM-only bound: the layer's GEMMs alone (fwd: A@W; bwd: B@W'ᵀ and Fᵀ@B)
     A = torch.randn(n, ncell * channels)
     Wf = torch.randn(ncell * channels, channels)
-    t_gemm = _median_time(lambda: A @ Wf, repeat)
-    t_gemm_bwd = _median_time(lambda: (A @ Wf, F.detach().t() @ A), repeat)
+    t_gemm = _best_time(lambda: A @ Wf, repeat)
+    t_gemm_bwd = _best_time(lambda: (A @ Wf, F.detach().t() @ A), repeat)
     rows = []
 
     def measure(label, backend, gemm_dtype=None, grad=True):
@@ -130,14 +132,14 @@ def run_cconv(particles: int = 30000, channels: int = 64, kernel_size: int = 4,
 
         fwd()  # warm-up (compilation, sparse matrices)
         with PeakRSS() as mem_f:
-            t_f = _median_time(fwd, repeat)
+            t_f = _best_time(fwd, repeat)
         row = {"variant": label, "particles": n, "edges": geom.n_edges,
                "neighbors": geom.n_edges / n, "fwd_s": t_f, "fwd_peak_mib": mem_f.peak_mib,
                "fwd_gflops": gemm_flops / t_f / 1e9, "fwd_vs_gemm_bound": t_f / t_gemm}
         if grad:
             fwd_bwd()
             with PeakRSS() as mem_b:
-                t_b = _median_time(fwd_bwd, repeat)
+                t_b = _best_time(fwd_bwd, repeat)
             row.update({"fwd_bwd_s": t_b, "fwd_bwd_peak_mib": mem_b.peak_mib,
                         "fwd_bwd_gflops": 3 * gemm_flops / t_b / 1e9,
                         "fwd_bwd_vs_gemm_bound": t_b / (t_gemm + t_gemm_bwd)})
@@ -244,10 +246,10 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
                         totals.append(time.perf_counter() - t0)
                 net.profile = False
             parts = {k: v_ / repeat for k, v_ in net.timings.items()}
-            total = statistics.median(totals)
             mean_total = sum(totals) / repeat
             row = {"network": name, "particles": len(x), "walls": len(wx),
-                   "ms_per_step": total * 1e3,
+                   "ms_per_step": min(totals) * 1e3,
+                   "ms_per_step_median": statistics.median(totals) * 1e3,
                    "search_ms": parts.get("search", 0) * 1e3,
                    "geometry_ms": parts.get("geometry", 0) * 1e3,
                    "convolutions_ms": parts.get("convolutions", 0) * 1e3,
@@ -257,11 +259,13 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
             if echo:
                 echo(row)
     return {"benchmark": "model", "machine": machine_info(), "rows": rows,
-            "note": "no gradients, float32; breakdown = means, ms_per_step = median"}
+            "note": "no gradients, float32 (+bf16 GEMMs if set); ms_per_step = best of repeats, "
+                    "breakdown = means over repeats (other = mean total - parts)"}
 
 
 def _fmt_row(r):
     return (f"{r['network']:13s} {r['particles']:7d} {r['ms_per_step']:9.1f} "
+            f"{r['ms_per_step_median']:8.1f} "
             f"{r['search_ms']:8.1f} {r['geometry_ms']:9.1f} {r['convolutions_ms']:8.1f} "
             f"{r['other_ms']:7.1f} {r['peak_mib']:7.0f}")
 
@@ -287,7 +291,7 @@ def model_command(particles, networks, repeat, bf16, json_path):
     info = machine_info()
     click.echo(f"neural step (Δt = 0.02 s), 3-D, float32{' + bf16 GEMMs' if bf16 else ''}, "
                f"threads torch {info['torch_threads']} / numba {info['numba_threads']}")
-    click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'search':>8s} {'geometry':>9s} "
+    click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'median':>8s} {'search':>8s} {'geometry':>9s} "
                f"{'convs':>8s} {'other':>7s} {'MiB':>7s}")
     res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)))
     _write_json(json_path, res)

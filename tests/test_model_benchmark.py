@@ -1,0 +1,35 @@
+"""Smoke tests of ``dcdc benchmark cconv`` / ``dcdc benchmark model`` (tiny sizes; no timing asserts)."""
+import json
+
+from click.testing import CliRunner
+
+from dcdc.model.benchmark import cconv_command, model_command, tank
+
+
+def test_cconv_benchmark_cli_writes_json(tmp_path):
+    out = tmp_path / "cconv.json"
+    res = CliRunner().invoke(cconv_command, ["--particles", "1000", "--channels", "8",
+                                             "--repeat", "1", "--torch-backend", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    assert [r["variant"] for r in data["rows"]] == ["numba fp32", "torch fp32",
+                                                    "numba bf16 GEMM (inference)"]
+    assert data["setup"]["mean_neighbors"] > 20
+    assert all(r["fwd_s"] > 0 for r in data["rows"])
+
+
+def test_model_benchmark_cli_writes_json(tmp_path):
+    out = tmp_path / "model.json"
+    res = CliRunner().invoke(model_command, ["--particles", "400", "--repeat", "1",
+                                             "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    rows = json.loads(out.read_text())["rows"]
+    assert {r["network"] for r in rows} == {"dcdc", "cconv", "dcdc-antisym"}
+    assert all(r["ms_per_step"] > 0 and r["search_ms"] >= 0 for r in rows)
+
+
+def test_tank_scene_walls_face_the_fluid():
+    x, v, rho, wx, wn = tank(1000)
+    assert len(x) == 1000 and set(rho) == {1000.0, 2000.0}
+    centre = x.mean(0)
+    assert ((centre - wx) * wn).sum(1).min() > 0  # normals point into the tank
