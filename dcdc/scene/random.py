@@ -174,6 +174,8 @@ def _draw(rng, seed, cfg, sp) -> dict:
         raise DcdcError("no room for the fluid blocks")
     duration = cfg.duration if cfg.duration is not None else round(float(rng.uniform(2.0, 3.0)) / 0.02) * 0.02
     ratio = max(p["density"] for p in phases.values()) / min(p["density"] for p in phases.values())
+    if len(phases) > 1 and not cfg.min_ratio * (1 - 1e-6) <= ratio <= cfg.max_ratio * (1 + 1e-6):
+        raise DcdcError("a block with an extreme density found no room")
     return {
         "name": f"random_{seed}",
         "description": (f"random scene: seed {seed}, {d}-D, {container}, {len(phases)} phase(s), "
