@@ -71,7 +71,7 @@ FLUID_SHAPES = {
     "cylinder": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
                  "axis": ("int", 1)},
     "fill": {"inside": ("str", REQ), "min": ("vecL", None), "max": ("vecL", None),
-             "clearance": ("L0", None)},
+             "clearance": ("L0", None), "top_wave": ("pair", None), "bottom_wave": ("pair", None)},
 }
 EMITTER = {"phase": ("str", REQ), "position": ("vecL", REQ), "direction": ("vec", REQ),
            "speed": ("pos", REQ), "radius": ("L", None), "rate": ("pos", None),
@@ -460,7 +460,15 @@ def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, sol
         lo = np.array(f["min"]) if f["min"] is not None else dom_lo
         hi = np.array(f["max"]) if f["max"] is not None else dom_hi
         lo, hi = np.maximum(lo, dom_lo), np.minimum(hi, dom_hi)
-        pts = lattice(lo, hi, spacing, anchor)
+        top, bot = f["top_wave"], f["bottom_wave"]
+        ext = np.zeros(dim)
+        ext[1] = max(abs(top[0]) if top else 0.0, abs(bot[0]) if bot else 0.0)
+        pts = lattice(lo - ext, hi + ext, spacing, anchor)
+        if top or bot:
+            x0 = pts[:, 0] - lo[0]
+            keep = pts[:, 1] < (hi[1] + top[0] * np.cos(2 * np.pi * x0 / top[1]) if top else hi[1])
+            keep &= pts[:, 1] >= (lo[1] + bot[0] * np.cos(2 * np.pi * x0 / bot[1]) if bot else lo[1])
+            pts = pts[keep]
         if not len(pts):
             return pts
         wall = next(w for w in solids if w.name == f["inside"])
