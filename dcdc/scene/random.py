@@ -86,21 +86,25 @@ def _draw(rng, seed, cfg, sp) -> dict:
     d = cfg.dim
     walls, fluid = {}, []
     container = "bowl" if rng.uniform() < 0.2 else "box"
+    # every container is closed by a lid (a box around it), so no splash leaves the domain
     if container == "box":
         W = _snap(rng.uniform(1.0, 2.0) if d == 2 else rng.uniform(0.8, 1.4), sp)
         H = _snap(rng.uniform(0.8, 1.4), sp)
         D = _snap(rng.uniform(0.6, 1.2), sp) if d == 3 else None
         lo = [0.0, 0.0] + ([0.0] if d == 3 else [])
         hi = [W, H] + ([D] if d == 3 else [])
-        walls["tank"] = {"shape": "box", "min": lo, "max": hi, "hollow": True}
-        dom_lo, dom_hi = list(lo), [W, H + 1.0] + ([D] if d == 3 else [])
+        top = [W, H + 0.6] + ([D] if d == 3 else [])
+        walls["tank"] = {"shape": "box", "min": lo, "max": top, "hollow": True, "open_top": False}
+        dom_lo, dom_hi = list(lo), list(top)
         region_lo, region_hi = np.array(lo), np.array(hi)
     else:
         R = _snap(rng.uniform(0.6, 0.9) if d == 2 else rng.uniform(0.5, 0.7), sp)
         c = [0.0, 0.0] + ([0.0] if d == 3 else [])
         walls["bowl"] = {"shape": "bowl", "center": c, "radius": R}
-        dom_lo = [-R - 0.1, -0.2] + ([-R - 0.1] if d == 3 else [])
-        dom_hi = [R + 0.1, R + 1.0] + ([R + 0.1] if d == 3 else [])
+        dom_lo = [-R - 0.3, -0.2] + ([-R - 0.3] if d == 3 else [])
+        dom_hi = [R + 0.3, R + 0.6] + ([R + 0.3] if d == 3 else [])
+        walls["box"] = {"shape": "box", "min": list(dom_lo), "max": list(dom_hi), "hollow": True,
+                        "open_top": False}
         region_lo = np.array([-R, 0.0] + ([-R] if d == 3 else []))
         region_hi = np.array([R, R] + ([R] if d == 3 else []))
     ext = region_hi - region_lo
