@@ -293,3 +293,25 @@ def test_pure_torch_backend_equals_numba_backend(name):
         res[backend] = [dx.detach(), vt.grad] + [p.grad for p in net.parameters()]
     for a, b in zip(res["numba"], res["torch"]):
         torch.testing.assert_close(a, b, rtol=1e-9, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", sorted(NETWORKS))
+def test_empty_tiny_and_wall_less_systems(name):
+    net = _net(name, 3)
+    for n in (0, 1, 2):
+        x = np.random.default_rng(n).uniform(0, 0.05, (n, 3))
+        for walls in (None, np.zeros((0, 3)), np.full((3, 3), 0.01)):
+            wn = None if walls is None else np.tile([0, 1.0, 0], (len(walls), 1))
+            x1, v1 = step(net, x, np.zeros((n, 3)), np.full(n, 500.0), walls, wn)
+            assert x1.shape == (n, 3) and torch.isfinite(x1).all() and torch.isfinite(v1).all()
+
+
+def test_continuous_densities_choose_the_per_edge_path():
+    x, v, _, wx, wn = _scene(3, 4)
+    rho = np.random.default_rng(3).uniform(500, 3000, len(x))
+    net = _net("dcdc", 3)
+    ctx = net.prepare(x, rho, wx)
+    assert ctx.plan.mode == "edges"
+    ctx2 = net.prepare(x, np.round(rho, -3), wx)
+    assert ctx2.plan.mode == "classes"
+    assert torch.isfinite(net(x, v, rho, wx, wn, ctx=ctx)).all()

@@ -100,7 +100,8 @@ class AntisymCConvLayer(CConvLayer):
             W = self.filter()  # [cells, C_in, C_out]
             n, P, cin = h.shape
             hw = (h.reshape(n * P, cin) @ W.permute(1, 0, 2).reshape(cin, -1))
-            self_term = torch.einsum("icb,ibco->io", S, hw.reshape(n, P, W.shape[0], -1))
+            hw = hw.reshape(n, P, W.shape[0], W.shape[2])
+            self_term = torch.einsum("icb,ibco->io", S, hw)
             return self.conv(rows, pgeom) + self_term
         rows, egeom = plan.symmetric_edges(features, self.modulation, embedding)
         return self.conv(rows, egeom)
