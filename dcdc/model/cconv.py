@@ -188,6 +188,34 @@ def _spread(row_splits, src, cells, w, F, r0, r1, out):
 
 
 @nb.njit(cache=True, parallel=True, fastmath=True)
+def _spread_bf16(row_splits, src, cells, w, F, r0, r1, out):
+    """:func:`_spread` accumulated in float32, written as bf16 bits (uint16, round to nearest
+    even) so the bf16 GEMM reads it without a separate conversion pass."""
+    C = F.shape[1]
+    nk = cells.shape[1]
+    width = out.shape[1]
+    block = 16
+    for b in nb.prange((r1 - r0 + block - 1) // block):
+        acc = np.empty(width, dtype=np.float32)
+        bits = acc.view(np.uint32)
+        for ii in range(b * block, min((b + 1) * block, r1 - r0)):
+            i = r0 + ii
+            acc[:] = 0.0
+            for e in range(row_splits[i], row_splits[i + 1]):
+                fj = F[src[e]]
+                for k in range(nk):
+                    seg = acc[cells[e, k] * C:(cells[e, k] + 1) * C]
+                    wk = w[e, k]
+                    for c in range(C):
+                        seg[c] += wk * fj[c]
+            o = out[ii]
+            for q in range(width):
+                u = bits[q]
+                o[q] = np.uint16((u + np.uint32(0x7FFF) + ((u >> np.uint32(16)) & np.uint32(1)))
+                                 >> np.uint32(16))
+
+
+@nb.njit(cache=True, parallel=True, fastmath=True)
 def _collect(row_splits, src, cells, w, H, out):
     """out[i] = Σ_{edges e of row i, corners k} w[e,k]·H[src[e], cells[e,k]·C : +C]."""
     C = out.shape[1]
@@ -356,6 +384,16 @@ def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
     if gemm_dtype is not None:
         Wf = Wf.to(gemm_dtype)
     rows = min(R, _rows_per_chunk(ncell * cin, F.element_size()))
+    if gemm_dtype == torch.bfloat16 and F.dtype == torch.float32:
+        bits = torch.empty(rows, ncell * cin, dtype=torch.int16)
+        bitsn = bits.numpy().view(np.uint16)
+        res = torch.empty(rows, cout, dtype=torch.bfloat16)
+        for r0 in range(0, R, rows):
+            r1 = min(R, r0 + rows)
+            _spread_bf16(geom.row_splits, geom.src, geom.cells, w, Fn, r0, r1, bitsn)
+            torch.mm(bits[: r1 - r0].view(torch.bfloat16), Wf, out=res[: r1 - r0])
+            out[r0:r1] = res[: r1 - r0]
+        return out
     buf = torch.empty(rows, ncell * cin, dtype=F.dtype)
     bufn = buf.numpy()
     for r0 in range(0, R, rows):
