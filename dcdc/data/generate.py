@@ -40,7 +40,7 @@ class Job:
     """One trajectory to generate."""
 
     name: str
-    scene_text: str
+    scene_text: str | None  # None for random jobs: drawn from ``random_cfg`` when run
     source: str  # "builtin:NAME", a file path, or "random:SEED"
     dim: int
     resolution: float = 1.0
@@ -48,6 +48,13 @@ class Job:
     duration: float | None = None
     split: str = ""
     solver_overrides: dict | None = None
+    random_cfg: dict | None = None
+
+    def text(self) -> str:
+        if self.scene_text is None:
+            from ..scene.random import RandomSceneConfig, random_scene_text
+            self.scene_text = random_scene_text(self.seed, RandomSceneConfig(**self.random_cfg))
+        return self.scene_text
 
 
 # ------------------------------------------------------------------ stand-in simulator
@@ -131,14 +138,9 @@ def scene_jobs(scenes, dim: int | None = None, resolution: float = 1.0,
 def random_jobs(n: int, seed: int, cfg, duration: float | None = None, split: str = "",
                 solver_overrides=None) -> list[Job]:
     """Jobs for ``n`` random scenes with seeds seed .. seed+n-1 (see dcdc.scene.random)."""
-    from ..scene.random import random_scene_text
-    jobs = []
-    for k in range(n):
-        s = seed + k
-        text = random_scene_text(s, cfg)
-        jobs.append(Job(f"random_{s}_{cfg.dim}d", text, f"random:{s}", cfg.dim, 1.0, s, duration,
-                        split, solver_overrides))
-    return jobs
+    cfg.check()
+    return [Job(f"random_{s}_{cfg.dim}d", None, f"random:{s}", cfg.dim, 1.0, s, duration, split,
+                solver_overrides, asdict(cfg)) for s in range(seed, seed + n)]
 
 
 def parse_shard(shard: str | None) -> tuple[int, int]:
@@ -181,7 +183,7 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         stale.unlink(missing_ok=True)  # left by a killed run of this same job
     rec = {"name": job.name, "source": job.source, "dim": job.dim, "seed": job.seed}
     try:
-        scene = parse(job.scene_text, job.source)
+        scene = parse(job.text(), job.source)
         system = scene.realize(dim=job.dim, resolution=job.resolution)
         settings = {**scene.solver, **(job.solver_overrides or {})}
         sim, solver_name, settings_used = make_simulator(simulator, system, settings)
@@ -202,7 +204,7 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
                 progress(1)
         wall = time.time() - t0
         attrs = {
-            "name": job.name, "scene": scene.name, "scene_toml": job.scene_text, "source": job.source,
+            "name": job.name, "scene": scene.name, "scene_toml": job.text(), "source": job.source,
             "scene_dim": scene.dim, "resolution": job.resolution, "seed": job.seed,
             "split": job.split, "frame_dt": fdt, "duration": n_frames * fdt,
             "solver": solver_name, "solver_settings": json.dumps(settings_used, sort_keys=True),
@@ -264,6 +266,8 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
             return frames_of(j)
         if j.duration is not None:
             return int(round(j.duration / 0.02))
+        if j.scene_text is None:  # random scene, drawn later: 2-3 s, ~125 frames
+            return int(round((j.random_cfg.get("duration") or 2.5) / 0.02))
         import tomllib
         d = tomllib.loads(j.scene_text)
         return int(round(d.get("duration", 2.0) / d.get("frame_dt", 0.02)))
