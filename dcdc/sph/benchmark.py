@@ -1,0 +1,146 @@
+"""``dcdc benchmark sph``: cost of the reference solver on this machine.
+
+The scene (:func:`benchmark_system`) is a 3-D tank with two phases side by side (heavy on
+the left, ``ratio`` times lighter on the right) that collapse into layers: the hardest
+regime for a multiphase pressure solver. The same scene is run by SPlisHSPlasH when its
+runner (``dcdc.sph.splishsplash``) and ``pysplishsplash`` are importable.
+"""
+from __future__ import annotations
+
+import json
+import math
+import platform
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+
+from ..errors import DcdcError
+from ..particles import DEFAULT_RADIUS, ParticleSystem, Phase
+from .cases import tank_system
+from .config import SPHConfig
+from .solver import Simulator
+
+
+def benchmark_system(ratio: float, n_target: int = 10000, dim: int = 3,
+                     radius: float = DEFAULT_RADIUS) -> ParticleSystem:
+    """Tank with a fluid block W × W/2 (× 0.8 W) of about ``n_target`` particles, its left
+    half of density 1000 and its right half 1000/``ratio``; walls 0.3 m above the fluid."""
+    if not (math.isfinite(ratio) and ratio >= 1.0):
+        raise DcdcError(f"density ratio must be >= 1 (got {ratio})")
+    if n_target < 8:
+        raise DcdcError(f"n_target must be >= 8 (got {n_target})")
+    s = 2.0 * radius
+    shape = np.array([1.0, 0.5, 0.8])[:dim]
+    k = (n_target / np.prod(shape)) ** (1.0 / dim)
+    counts = np.maximum(np.round(shape * k), 2).astype(int)
+    size = list(counts * s)
+    W = size[0]
+    split = lambda pts: np.where(pts[:, 0] < W / 2, 0, 1)  # noqa: E731
+    phases = [Phase("heavy", 1000.0), Phase("light", 1000.0 / ratio)]
+    return tank_system(dim, radius, size, [(np.zeros(3), size + [0] * (3 - dim), split)], phases,
+                       wall_height=size[1] + 0.3, name=f"benchmark_{ratio:g}to1")
+
+
+def run_ours(system: ParticleSystem, duration: float, cfg: SPHConfig | None = None) -> dict:
+    """Time ``duration`` simulated seconds (after one warm-up frame) of our solver."""
+    sim = Simulator(system, cfg or SPHConfig())
+    sim.advance(0.02)  # compile / warm caches; not timed
+    t0 = sim.totals.copy()
+    n_frames = max(1, int(round(duration / 0.02)))
+    vmax = 0.0
+    start = time.perf_counter()
+    for _ in range(n_frames):
+        st = sim.advance(0.02)
+        vmax = max(vmax, st["max_speed"])
+    wall = time.perf_counter() - start
+    subs = sim.totals["substeps"] - t0["substeps"]
+    sim_time = n_frames * 0.02
+    return {
+        "solver": f"dcdc {sim.cfg.solver}",
+        "fluid_particles": system.n_fluid,
+        "wall_particles": system.n_wall,
+        "threads": sim.threads(),
+        "simulated_s": sim_time,
+        "wall_s": wall,
+        "wall_s_per_simulated_s": wall / sim_time,
+        "substeps": subs,
+        "ms_per_substep": 1e3 * wall / subs,
+        "mean_substep_ms": 1e3 * sim_time / subs,
+        "pressure_iterations_per_substep":
+            (sim.totals["iterations"] - t0["iterations"]) / subs,
+        "divergence_iterations_per_substep":
+            (sim.totals["divergence_iterations"] - t0["divergence_iterations"]) / subs,
+        "max_density_error": sim.totals["max_density_error"],
+        "max_speed": vmax,
+        "stable": True,
+    }
+
+
+def run_splishsplash_if_available(system: ParticleSystem, duration: float) -> list[dict] | str:
+    try:
+        from .splishsplash import run_splishsplash  # written by the SPlisHSPlasH runner's owner
+        import pysplishsplash  # noqa: F401
+    except ImportError:
+        return "SPlisHSPlasH not installed"
+    out = []
+    for solver in ("DFSPH", "IISPH"):
+        try:
+            out.append(run_splishsplash(system, duration, solver))
+        except Exception as e:  # a foreign solver that explodes is a result, not our crash
+            out.append({"solver": f"SPlisHSPlasH {solver}", "error": str(e).splitlines()[0]})
+    return out
+
+
+def _row(r: dict) -> str:
+    if "error" in r:
+        return f"{r.get('solver', '?'):<22} {r.get('ratio', ''):>6}  failed: {r['error']}"
+    return (f"{r['solver']:<22} {r.get('ratio', ''):>6} {r['fluid_particles']:>8} "
+            f"{r.get('threads', ''):>7} {r['wall_s_per_simulated_s']:>10.2f} "
+            f"{r['ms_per_substep']:>9.1f} {r['mean_substep_ms']:>9.2f} "
+            f"{r.get('pressure_iterations_per_substep', float('nan')):>8.1f}")
+
+
+@click.command("sph")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
+              help="also write the results here (e.g. benchmarks/sph.json)")
+@click.option("--particles", default=10000, show_default=True, help="fluid particles (about)")
+@click.option("--duration", default=1.0, show_default=True, help="simulated seconds per run")
+@click.option("--ratios", default="2,10", show_default=True, help="density ratios to run")
+@click.option("--dim", type=click.Choice(["2", "3"]), default="3", show_default=True)
+@click.option("--solver", type=click.Choice(["dfsph", "wcsph"]), default="dfsph", show_default=True)
+def benchmark_command(json_path, particles, duration, ratios, dim, solver):
+    """Wall seconds per simulated second of the multiphase SPH solver (2:1 and 10:1)."""
+    try:
+        rs = [float(v) for v in ratios.split(",") if v.strip()]
+    except ValueError:
+        raise DcdcError(f"--ratios must be comma-separated numbers (got {ratios!r})") from None
+    if not rs:
+        raise DcdcError("--ratios is empty")
+    if not duration > 0:
+        raise DcdcError(f"--duration must be > 0 (got {duration})")
+    results = []
+    click.echo(f"{'solver':<22} {'ratio':>6} {'fluid':>8} {'threads':>7} {'wall s/s':>10} "
+               f"{'ms/step':>9} {'dt ms':>9} {'iters':>8}")
+    for ratio in rs:
+        system = benchmark_system(ratio, particles, int(dim))
+        res = run_ours(system, duration, SPHConfig(solver=solver))
+        res["ratio"] = f"{ratio:g}:1"
+        results.append(res)
+        click.echo(_row(res))
+        other = run_splishsplash_if_available(benchmark_system(ratio, particles, int(dim)), duration)
+        if isinstance(other, str):
+            click.echo(other)
+        else:
+            for o in other:
+                o.setdefault("ratio", f"{ratio:g}:1")
+                results.append(o)
+                click.echo(_row(o))
+    if json_path:
+        doc = {"machine": {"cpu": platform.processor() or platform.machine(),
+                           "python": platform.python_version()},
+               "duration_s": duration, "results": results}
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+        click.echo(f"wrote {json_path}")

@@ -1,0 +1,303 @@
+"""Validation scenes of ``dcdc validate-sph`` and their measurements.
+
+Every case builds a tank of wall particles (:func:`dcdc.geometry.sample_walls` on
+:func:`dcdc.geometry.shapes.container`) holding blocks of fluid on the rest lattice, runs the
+solver, and returns rows ``(case, quantity, measured, reference, tolerance, passed)``.
+Quick variants are coarser and shorter (they run in the test suite); full variants are what
+the README reports.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..geometry import lattice, sample_walls
+from ..geometry.shapes import container
+from ..particles import ParticleSystem, Phase
+from .config import SPHConfig
+from .solver import Simulator
+
+G = 9.81
+FRAME = 0.02
+
+# Martin & Moyce (1952), "Part IV. An experimental study of the collapse of liquid columns on
+# a rigid horizontal plane", Phil. Trans. R. Soc. Lond. A 244, 312-324, Fig. 3, column of
+# width a = 2.25 in and height 2a (n² = 2): surge front Z = z/a against T = t·sqrt(2g/a),
+# as digitised in PySPH (pysph/examples/db_exp_data.py). Points up to Z ≈ 4.
+MARTIN_MOYCE_T = np.array([0.832, 1.219, 1.997, 2.547, 3.345])
+MARTIN_MOYCE_Z = np.array([1.217, 1.474, 2.292, 2.995, 4.134])
+
+
+@dataclass
+class Row:
+    case: str
+    quantity: str
+    measured: float
+    reference: str
+    tolerance: str
+    passed: bool
+
+    def as_dict(self) -> dict:
+        return {"case": self.case, "quantity": self.quantity, "measured": self.measured,
+                "reference": self.reference, "tolerance": self.tolerance, "pass": self.passed}
+
+
+# ---------------------------------------------------------------------------- scene building
+def tank_system(dim: int, r: float, size, blocks, phases: list[Phase], wall_height=None,
+                name: str = "tank") -> ParticleSystem:
+    """Open-top tank with inner box [0, size] (walls ``wall_height`` tall) and fluid blocks.
+
+    ``blocks``: list of (lo, hi, phase_of) where ``phase_of(points) -> phase index or -1``
+    may split a block between phases (or drop points). Fluid sits on the lattice
+    ``r + 2r·k`` so that the first layer is one spacing from the wall particles."""
+    s = 2.0 * r
+    size = np.asarray(size, dtype=np.float64)[:dim]
+    lo = np.zeros(dim)
+    top = np.array(size)
+    top[1] = size[1] if wall_height is None else wall_height
+    xs, ph = [], []
+    for blo, bhi, phase_of in blocks:
+        pts = lattice(np.asarray(blo, float)[:dim] + r, np.asarray(bhi, float)[:dim] - r, s,
+                      anchor=lo + r)
+        idx = np.asarray(phase_of(pts), dtype=np.int64)
+        keep = idx >= 0
+        xs.append(pts[keep])
+        ph.append(idx[keep])
+    x = np.concatenate(xs)
+    phase = np.concatenate(ph)
+    sdf = container(lo - r, top + r)
+    pad = 2 * s + 0.5 * r
+    whi = top + r + pad
+    whi[1] = top[1] + r
+    wx, wn = sample_walls(sdf, lo - r - pad, whi, s, 2 * s, anchor=lo - r)
+    dom_lo = lo - 2 * s - 0.05
+    dom_hi = top + 2 * s + 0.05
+    dom_hi[1] = top[1] + 2.0
+    gravity = np.array([0.0, -G, 0.0])[:dim]
+    return ParticleSystem(dim, r, x, np.zeros_like(x), phase, phases, wx, wn, gravity,
+                          (dom_lo, dom_hi), name=name)
+
+
+def _const(i):
+    return lambda pts: np.full(len(pts), i)
+
+
+def _depth_size(dim, w, h, depth):
+    return [w, h, depth][:dim]
+
+
+# ---------------------------------------------------------------------------- measurements
+def phase_order_ok(sy: ParticleSystem, order_bottom_to_top: list[int]) -> bool:
+    ys = [sy.x[sy.phase == k, 1].mean() for k in order_bottom_to_top]
+    return all(a < b for a, b in zip(ys, ys[1:]))
+
+
+def layer_purity(sy: ParticleSystem, order_bottom_to_top: list[int], floor: float,
+                 area: float, V0: float) -> float:
+    """Fraction of particles lying in their phase's ideal layer (± one spacing): layers are
+    stacked from ``floor`` in the given order with heights N_k V0 / area."""
+    y = sy.x[:, 1]
+    ok = 0
+    base = floor
+    for k in order_bottom_to_top:
+        m = sy.phase == k
+        hgt = m.sum() * V0 / area
+        lo, hi = base - sy.spacing, base + hgt + sy.spacing
+        ok += int(((y[m] >= lo) & (y[m] <= hi)).sum())
+        base += hgt
+    return ok / sy.n_fluid
+
+
+def phase_volumes(sim: Simulator) -> np.ndarray:
+    """Volume per phase V_k = Σ m_i/ρ_i with ρ_i = ρ0_i max(ψ_i, 1): compression shrinks it,
+    while the kernel deficiency at a free surface (ψ < 1) is not counted as expansion."""
+    psi = sim.density() / sim.system.rest_density
+    vol = sim.V0 / np.maximum(psi, 1.0)
+    return np.bincount(sim.system.phase, weights=vol, minlength=len(sim.system.phases))
+
+
+def run(sim: Simulator, duration: float, every: Callable | None = None) -> dict:
+    """Advance ``duration`` in frames; track the largest speed and substep statistics."""
+    n = int(round(duration / FRAME))
+    vmax = 0.0
+    subs = 0
+    for f in range(n):
+        st = sim.advance(FRAME)
+        vmax = max(vmax, st["max_speed"])
+        subs += st["substeps"]
+        if every is not None:
+            every(sim, f)
+    return {"max_speed": vmax, "substeps": subs}
+
+
+# ---------------------------------------------------------------------------- cases
+def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
+    """Tank at rest: pressure gradient against ρ g, ψ error, residual speed after settling."""
+    r = 0.025 if quick else 0.0125
+    W, H = 0.5, 0.5
+    size = _depth_size(dim, W, H, 0.25 if quick else 0.2)
+    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), _const(0))],
+                     [Phase("water", 1000.0)], wall_height=H + 0.2, name="hydrostatic")
+    sim = Simulator(sy, cfg)
+    T = 1.5 if quick else 3.0
+    rho0 = 1000.0
+    h = sim.h
+    area = float(np.prod(np.delete(size, 1)))
+    height = sy.n_fluid * sim.V0 / area  # free-surface height of the fluid at rest density
+    samples = []  # (y, p) of interior particles over the last 0.5 s (SPH pressure is noisy)
+    n_avg = int(0.5 / FRAME)
+
+    def sample(s, f):
+        if f >= int(round(T / FRAME)) - n_avg:
+            y = s.system.x[:, 1]
+            inner = np.ones(s.system.n_fluid, bool)
+            for k in range(dim):
+                if k != 1:
+                    inner &= (s.system.x[:, k] > h) & (s.system.x[:, k] < size[k] - h)
+            inner &= (y > h) & (y < height - h)
+            samples.append((y[inner], s.pressure()[inner]))
+    run(sim, T, sample)
+    ys = np.concatenate([a for a, _ in samples])
+    ps = np.concatenate([b for _, b in samples])
+    A = np.stack([ys, np.ones(len(ys))], 1)
+    slope, icpt = np.linalg.lstsq(A, ps, rcond=None)[0]
+    grad_err = abs(-slope / (rho0 * G) - 1.0)
+    p_mid = slope * (height / 2) + icpt
+    mid_err = abs(p_mid / (rho0 * G * height / 2) - 1.0)
+    y = sy.x[:, 1]
+    psi = sim.density() / rho0
+    inner = (y > h) & (y < height - h)
+    dens_err = float(np.abs(psi[inner] - 1.0).mean())
+    speed = float(np.sqrt((sy.v ** 2).sum(1)).mean())
+    uref = math.sqrt(G * height)
+    c = f"hydrostatic {dim}D (N={sy.n_fluid})"
+    return [
+        Row(c, "dp/dy / (ρ0 g)", -slope / (rho0 * G), "1", "±5 %", grad_err <= 0.05),
+        Row(c, "p(H/2) / (ρ0 g H/2)", p_mid / (rho0 * G * height / 2), "1", "±5 %", mid_err <= 0.05),
+        Row(c, "mean |ρ/ρ0 - 1|", dens_err, "0", "< 1 %", dens_err < 0.01),
+        Row(c, "mean speed / sqrt(gH)", speed / uref, "0", "< 1 %", speed / uref < 0.01),
+    ]
+
+
+def dam_break(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
+    """Column a × 2a collapsing on a dry floor: surge front against Martin & Moyce (1952)."""
+    a = 0.4 if dim == 3 else 0.5
+    r = (0.025 if quick else 0.0125) if dim == 2 else (0.025 if quick else 0.02)
+    depth = 0.2 if dim == 3 else 1.0
+    L = 5.0 * a
+    size = _depth_size(dim, L, 2 * a, depth)
+    col = _depth_size(dim, a, 2 * a, depth) + [0] * (3 - dim)
+    sy = tank_system(dim, r, size, [(np.zeros(3), col, _const(0))], [Phase("water", 1000.0)],
+                     wall_height=2 * a + 0.2, name="dam_break")
+    sim = Simulator(sy, cfg)
+    tscale = math.sqrt(a / (2 * G))  # t = T · sqrt(a / 2g)
+    T_end = MARTIN_MOYCE_T.max() * tscale
+    times, fronts = [0.0], [a]
+
+    def track(s, f):
+        times.append(s.time)
+        fronts.append(float(s.system.x[:, 0].max() + s.system.radius))
+    run(sim, math.ceil(T_end / FRAME) * FRAME + FRAME, track)
+    Z = np.interp(MARTIN_MOYCE_T * tscale, times, fronts) / a
+    rel = np.abs(Z / MARTIN_MOYCE_Z - 1.0)
+    c = f"dam break {dim}D (N={sy.n_fluid})"
+    rows = [Row(c, f"front Z at T={T:.2f}", float(z), f"{zr:.3f}", "±10 %", bool(e <= 0.10))
+            for T, z, zr, e in zip(MARTIN_MOYCE_T, Z, MARTIN_MOYCE_Z, rel)]
+    return rows
+
+
+def side_by_side(dim: int, quick: bool, cfg: SPHConfig, ratio: float = 10.0) -> list[Row]:
+    """Heavy and light phase (ratio:1) side by side settle into layers, heavy below."""
+    r = 0.025 if quick else 0.0125
+    W, H = 0.8, 0.4
+    size = _depth_size(dim, W, H, 0.2)
+    phases = [Phase("heavy", 1000.0), Phase("light", 1000.0 / ratio)]
+    split = lambda pts: np.where(pts[:, 0] < W / 2, 0, 1)  # noqa: E731
+    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), split)], phases,
+                     wall_height=H + 0.3, name="side_by_side")
+    sim = Simulator(sy, cfg)
+    v_start = phase_volumes(sim)
+    T = 3.0 if quick else 5.0
+    stats = run(sim, T)
+    v_end = phase_volumes(sim)
+    area = float(np.prod(np.delete(size, 1)))
+    purity = layer_purity(sy, [0, 1], 0.0, area, sim.V0)
+    dvol = np.abs(v_end / v_start - 1.0)
+    vbound = 2.0 * math.sqrt(2 * G * H)
+    c = f"{ratio:g}:1 side by side {dim}D (N={sy.n_fluid})"
+    return [
+        Row(c, "heavy below light", float(phase_order_ok(sy, [0, 1])), "1", "= 1",
+            phase_order_ok(sy, [0, 1])),
+        Row(c, "layer purity", purity, "1", ">= 0.9", purity >= 0.9),
+        Row(c, "volume change heavy", float(dvol[0]), "0", "< 2 %", bool(dvol[0] < 0.02)),
+        Row(c, "volume change light", float(dvol[1]), "0", "< 2 %", bool(dvol[1] < 0.02)),
+        Row(c, "max speed [m/s]", stats["max_speed"], f"< {vbound:.2f}", "finite, bounded",
+            bool(np.isfinite(stats["max_speed"]) and stats["max_speed"] < vbound)),
+    ]
+
+
+def rayleigh_taylor(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
+    """Heavy (2000) above light (1000) with a cosine-perturbed interface inverts."""
+    r = 0.025 if quick else 0.0125
+    W, H = 0.6, 0.8
+    size = _depth_size(dim, W, H, 0.2)
+    amp = 0.05
+    heavy_above = lambda pts: np.where(  # noqa: E731
+        pts[:, 1] > H / 2 + amp * np.cos(2 * np.pi * pts[:, 0] / W), 0, 1)
+    phases = [Phase("heavy", 2000.0), Phase("light", 1000.0)]
+    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), heavy_above)], phases,
+                     wall_height=H + 0.3, name="rayleigh_taylor")
+    sim = Simulator(sy, cfg)
+    T = 4.0 if quick else 6.0
+    stats = run(sim, T)
+    area = float(np.prod(np.delete(size, 1)))
+    purity = layer_purity(sy, [0, 1], 0.0, area, sim.V0)
+    c = f"Rayleigh-Taylor 2:1 {dim}D (N={sy.n_fluid})"
+    return [
+        Row(c, "inverted (heavy below)", float(phase_order_ok(sy, [0, 1])), "1", "= 1",
+            phase_order_ok(sy, [0, 1])),
+        Row(c, "layer purity", purity, "1", ">= 0.8", purity >= 0.8),
+        Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
+            bool(np.isfinite(stats["max_speed"]))),
+    ]
+
+
+def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
+    """Layers 3000/1500/1000/700 stacked in reverse (lightest at the bottom) sort themselves."""
+    r = 0.025 if quick else 0.0125
+    W, H = 0.4, 1.0
+    size = _depth_size(dim, W, H, 0.2)
+    dens = [700.0, 1000.0, 1500.0, 3000.0]
+    phases = [Phase(f"rho{int(d)}", d) for d in dens]
+    layer = lambda pts: np.clip((pts[:, 1] / (H / 4)).astype(int), 0, 3)  # noqa: E731
+    # phase 0 (700) at the bottom ... phase 3 (3000) on top: the reverse of equilibrium
+    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), layer)], phases,
+                     wall_height=H + 0.3, name="four_phase")
+    sim = Simulator(sy, cfg)
+    T = 6.0 if quick else 10.0
+    stats = run(sim, T)
+    area = float(np.prod(np.delete(size, 1)))
+    order = [3, 2, 1, 0]
+    purity = layer_purity(sy, order, 0.0, area, sim.V0)
+    ys = [float(sy.x[sy.phase == k, 1].mean()) for k in order]
+    c = f"four phases {dim}D (N={sy.n_fluid})"
+    return [
+        Row(c, "order 3000<1500<1000<700 (mean y)", float(phase_order_ok(sy, order)), "1", "= 1",
+            phase_order_ok(sy, order)),
+        Row(c, "layer purity", purity, "1", ">= 0.7", purity >= 0.7),
+        Row(c, "mean heights [m]", ys[0], " / ".join(f"{v:.2f}" for v in ys), "info", True),
+        Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
+            bool(np.isfinite(stats["max_speed"]))),
+    ]
+
+
+CASES = {
+    "hydrostatic": hydrostatic,
+    "dam_break": dam_break,
+    "side_by_side": side_by_side,
+    "rayleigh_taylor": rayleigh_taylor,
+    "four_phase": four_phase,
+}

@@ -1,0 +1,112 @@
+"""Solver settings: one typed dataclass, round-tripped through plain dicts (scene files, HDF5)."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+from ..errors import DcdcError
+
+SOLVERS = ("dfsph", "wcsph")
+
+
+@dataclass
+class SPHConfig:
+    """Settings of :class:`dcdc.sph.Simulator` (SI units).
+
+    solver: "dfsph" (implicit: divergence-free + constant-density solves, Bender & Koschier
+        2015) or "wcsph" (explicit weakly compressible, Becker & Teschner 2007; cross-check).
+    support: kernel support h in particle radii (h = support · r; DESIGN §2: 4).
+    cfl: Courant number; a substep moves no particle more than cfl · 2r.
+    dt_max, dt_min: substep bounds [s]; needing less than dt_min means divergence.
+    density_tolerance: mean |ψ - 1| residual per substep at which the density solve stops.
+    divergence_tolerance: mean compression per substep at which the divergence solve stops.
+    min_iterations, max_iterations: pressure-solver iteration bounds per solve.
+    omega: Jacobi relaxation of the pressure solves.
+    divergence_solve: run DFSPH's divergence-free solve.
+    viscosity: artificial kinematic viscosity added to every phase's own [m²/s].
+    xsph: strength ε of the momentum-conserving XSPH velocity filter (damps the odd-even
+        particle modes that SPH's centred divergence cannot see; 0 = off).
+    wall_viscosity: kinematic viscosity of the fluid-wall friction [m²/s] (0 = free slip).
+    surface_tension: Akinci et al. 2013 cohesion coefficient γ (0 = off).
+    sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
+    stiffness_exponent: WCSPH Tait exponent.
+    max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
+    """
+
+    solver: str = "dfsph"
+    support: float = 4.0
+    cfl: float = 0.4
+    dt_max: float = 0.005
+    dt_min: float = 1e-6
+    density_tolerance: float = 1e-5
+    divergence_tolerance: float = 1e-5
+    min_iterations: int = 1
+    max_iterations: int = 100
+    omega: float = 0.5
+    divergence_solve: bool = True
+    viscosity: float = 1e-3
+    xsph: float = 0.1
+    wall_viscosity: float = 0.0
+    surface_tension: float = 0.0
+    sound_speed: float = 0.0
+    stiffness_exponent: float = 7.0
+    max_speed: float = 50.0
+
+    def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> "SPHConfig":
+        if self.solver not in SOLVERS:
+            raise DcdcError(f"sph.solver must be one of {', '.join(SOLVERS)} (got {self.solver!r})")
+        positive = ("support", "cfl", "dt_max", "dt_min", "density_tolerance",
+                    "divergence_tolerance", "omega", "stiffness_exponent", "max_speed")
+        for name in positive:
+            _check_number(self, name, lambda v: v > 0, "> 0")
+        for name in ("viscosity", "xsph", "wall_viscosity", "surface_tension", "sound_speed"):
+            _check_number(self, name, lambda v: v >= 0, ">= 0")
+        for name in ("min_iterations", "max_iterations"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise DcdcError(f"sph.{name} must be an integer >= 1 (got {v!r})")
+        if not isinstance(self.divergence_solve, bool):
+            raise DcdcError(f"sph.divergence_solve must be true or false (got {self.divergence_solve!r})")
+        if self.support <= 2.0:
+            raise DcdcError(f"sph.support must exceed 2 particle radii (got {self.support})")
+        if self.cfl > 1.0:
+            raise DcdcError(f"sph.cfl must be <= 1 (got {self.cfl})")
+        if self.omega > 1.0:
+            raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
+        if self.dt_min > self.dt_max:
+            raise DcdcError(f"sph.dt_min ({self.dt_min}) exceeds sph.dt_max ({self.dt_max})")
+        if self.min_iterations > self.max_iterations:
+            raise DcdcError("sph.min_iterations exceeds sph.max_iterations")
+        return self
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict | None) -> "SPHConfig":
+        if d is None:
+            return cls()
+        if not isinstance(d, dict):
+            raise DcdcError(f"sph settings must be a table/dict (got {type(d).__name__})")
+        known = {f.name: f for f in fields(cls)}
+        unknown = sorted(set(d) - set(known))
+        if unknown:
+            raise DcdcError(f"unknown sph setting {unknown[0]!r} (known: {', '.join(known)})")
+        kw = {}
+        for k, v in d.items():
+            default = known[k].default
+            if isinstance(default, float) and isinstance(v, int) and not isinstance(v, bool):
+                v = float(v)
+            if type(v) is not type(default):
+                raise DcdcError(f"sph.{k} must be a {type(default).__name__} (got {v!r})")
+            kw[k] = v
+        return cls(**kw)
+
+
+def _check_number(cfg, name, ok, what):
+    v = getattr(cfg, name)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v or not ok(v) \
+            or v == float("inf"):
+        raise DcdcError(f"sph.{name} must be a finite number {what} (got {v!r})")

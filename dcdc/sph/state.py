@@ -1,0 +1,26 @@
+"""The arrays one substep works on: the active fluid particles and the static walls."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class State:
+    x: np.ndarray  # [n, d] positions (updated in place)
+    v: np.ndarray  # [n, d] velocities (updated in place)
+    phase: np.ndarray  # [n] int32
+    rho0: np.ndarray  # [n] rest density
+    mu: np.ndarray  # [n] dynamic viscosity ρ0 (ν_phase + ν_artificial)
+    p: np.ndarray  # [n] pressure of the constant-density solve (warm start), or WCSPH pressure
+    p_div: np.ndarray  # [n] pressure of the divergence-free solve (warm start)
+    wall_x: np.ndarray  # [m, d]
+    Vb: np.ndarray  # [m] Akinci volumes
+    gravity: np.ndarray  # [d]
+    V0: float  # rest volume of a fluid particle (2r)^d
+    h: float  # kernel support
+
+    @property
+    def dim(self) -> int:
+        return self.x.shape[1]
