@@ -137,16 +137,18 @@ def test_fast_path_equals_per_edge_path(name):
 def test_gradcheck_modulated_network_inputs():
     x, v, rho, wx, wn = _scene(2, 4)
     net = _perturb_modulation(_net("dcdc", 2, channels=[3, 4, 4]))
+    ctx = net.prepare(x, rho, wx)  # geometry is data: reuse it for every evaluation
     vt = torch.tensor(v, requires_grad=True)
-    assert torch.autograd.gradcheck(lambda vv: net(x, vv, rho, wx, wn), (vt,))
-    # and w.r.t. modulation and embedding weights (γ, β MLPs, φ)
-    names = ["conv0_fluid.modulation.gamma_mlp.0.weight", "convs.1.modulation.beta_mlp.2.bias",
+    assert torch.autograd.gradcheck(lambda vv: net(x, vv, rho, wx, wn, ctx=ctx), (vt,))
+    # and w.r.t. modulation and embedding weights (γ, β MLPs and φ get exact gradients)
+    names = ["conv0_fluid.modulation.gamma_mlp.2.bias", "convs.1.modulation.beta_mlp.2.bias",
              "embedding.phi.0.weight"]
     params = dict(net.named_parameters())
     args = tuple(params[n].detach().clone().requires_grad_() for n in names)
 
     def f(*ws):
-        return torch.func.functional_call(net, dict(zip(names, ws)), (x, v, rho, wx, wn))
+        return torch.func.functional_call(net, dict(zip(names, ws)), (x, v, rho, wx, wn),
+                                          {"ctx": ctx})
 
     assert torch.autograd.gradcheck(f, args)
 
