@@ -199,3 +199,12 @@ def test_builtin_runs_in_sph_2d(name, tmp_path):
     assert rec["status"] == "ok", rec
     t = Dataset(tmp_path)[0]
     assert t.n_frames == 6 and np.isfinite(t.position).all()
+
+
+def test_parallel_workers_match_serial(ballistic, tmp_path):
+    jobs = random_jobs(3, 0, CFG2, duration=0.2, split="train")
+    s = generate(jobs, tmp_path / "p", workers=2, simulator="ballistic", progress=False)
+    assert s["done"] == 3 and s["workers"] == 2
+    ref = Dataset(ballistic)
+    for t in Dataset(tmp_path / "p"):
+        assert np.array_equal(t.position, ref[t.name].position)
