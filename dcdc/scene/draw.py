@@ -41,9 +41,12 @@ def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=
         fig = plt.figure(figsize=(13, 6))
         ax = fig.add_subplot(1, 2, 1, projection="3d")
         zc = 0.5 * (lo[2] + hi[2])
-        back = w[w[:, 2] >= zc]  # the front half of the walls is cut away
-        ax.scatter(back[:, 0], back[:, 2], back[:, 1], s=ms * 0.4, c="0.5", alpha=0.35, linewidths=0)
-        ax.scatter(x[:, 0], x[:, 2], x[:, 1], s=ms * 0.5, c=colors, linewidths=0, depthshade=True)
+        # floors (normals up) in full, other walls with their front half cut away
+        keep = (system.wall_n[:, 1] > 0.5) | (w[:, 2] >= zc)
+        back = w[keep]
+        fs = float(np.clip(3e4 / max(len(x), 1), 1.0, 20.0))
+        ax.scatter(back[:, 0], back[:, 2], back[:, 1], s=1.5, c=back[:, 1], cmap="gist_earth", alpha=0.4, linewidths=0)
+        ax.scatter(x[:, 0], x[:, 2], x[:, 1], s=fs, c=colors, linewidths=0, depthshade=True)
         ax.set_xlabel("x"); ax.set_ylabel("z"); ax.set_zlabel("y")
         ext = (hi - lo).max() / 2
         c = (hi + lo) / 2
