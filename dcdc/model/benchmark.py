@@ -89,6 +89,7 @@ def machine_info() -> dict:
     return {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
             "torch_threads": torch.get_num_threads(), "numba_threads": numba.get_num_threads(),
             "torch": torch.__version__, "ld_preload": os.environ.get("LD_PRELOAD", ""),
+            "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY", ""),
             "time": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
