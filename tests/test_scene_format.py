@@ -79,6 +79,13 @@ def test_validation_names_field_and_line(edit, msg):
     assert "\n" not in str(e.value)
 
 
+def test_solver_table_is_checked():
+    sc = parse(MINIMAL + "\n[solver]\ncfl = 0.3\n")
+    assert sc.check_solver().cfl == 0.3
+    with pytest.raises(DcdcError, match=r"\[solver\]: unknown sph setting 'cfll'"):
+        parse(MINIMAL + "\n[solver]\ncfll = 0.3\n").check_solver()
+
+
 def test_line_numbers_point_at_the_field():
     with pytest.raises(DcdcError, match=r"fluid\[1\]\.velocity .* \(line 32\)"):
         parse(MINIMAL.replace("velocity = [0.0, 0.5]", "velocity = [0.0, 'x']"), "t.toml")

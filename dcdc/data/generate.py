@@ -125,6 +125,7 @@ def scene_jobs(scenes, dim: int | None = None, resolution: float = 1.0,
     jobs = []
     for s in scenes:
         sc = get_scene(s)  # validates now, before any worker starts
+        sc.check_solver()
         d = dim or sc.dim
         if d > sc.dim:
             raise DcdcError(f"scene {sc.name} is {sc.dim}-D; it has no {d}-D variant")

@@ -50,6 +50,7 @@ def show_command(scene, dim, resolution, image):
     """Validate and describe SCENE (a built-in name or a .toml file)."""
     from . import get_scene
     sc = get_scene(scene)
+    sc.check_solver()
     system = sc.realize(dim=dim, resolution=resolution)
     click.echo(_summary(system, sc))
     if image:

@@ -540,6 +540,16 @@ class Scene:
     def solver(self) -> dict:
         return copy.deepcopy(self.data["solver"])
 
+    def check_solver(self):
+        """Validate the [solver] table against dcdc.sph.SPHConfig; returns the config."""
+        from ..sph import SPHConfig
+        try:
+            return SPHConfig.from_dict(self.solver)
+        except DcdcError as e:
+            src = self.path.name if self.path else f"{self.name}.toml"
+            line = _find_line(self.text, "solver")
+            raise DcdcError(f"{src}: [solver]: {e}" + (f" (table at line {line})" if line else "")) from None
+
     def variant(self, dim: int | None = None, resolution: float = 1.0) -> dict:
         return _transform(self.data, dim or self.dim, resolution)
 
