@@ -33,3 +33,10 @@ def test_tank_scene_walls_face_the_fluid():
     assert len(x) == 1000 and set(rho) == {1000.0, 2000.0}
     centre = x.mean(0)
     assert ((centre - wx) * wn).sum(1).min() > 0  # normals point into the tank
+
+
+def test_model_benchmark_training_step(tmp_path):
+    res = CliRunner().invoke(model_command, ["--particles", "300", "--networks", "dcdc",
+                                             "--repeat", "1", "--train"])
+    assert res.exit_code == 0, res.output
+    assert "training step" in res.output

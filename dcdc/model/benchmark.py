@@ -223,7 +223,8 @@ def tank(n: int, dim: int = 3, seed: int = 0):
 
 
 def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antisym"),
-              repeat: int = 5, bf16: bool = False, echo=None) -> dict:
+              repeat: int = 5, bf16: bool = False, echo=None, train: bool = False) -> dict:
+    """Time neural steps; with ``train`` a step is forward + backward of a position loss."""
     from .integrator import step
     from .networks import build_network
 
@@ -236,16 +237,24 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
         for n in sizes:
             x, v, rho, wx, wn = tank(n)
             xt, vt = torch.tensor(x, dtype=torch.float32), torch.tensor(v, dtype=torch.float32)
-            with torch.no_grad():
-                step(net, xt, vt, rho, wx, wn)  # warm-up
-                net.profile, net.timings = True, {}
-                totals = []
-                with PeakRSS() as mem:
-                    for _ in range(repeat):
-                        t0 = time.perf_counter()
-                        step(net, xt, vt, rho, wx, wn)
-                        totals.append(time.perf_counter() - t0)
-                net.profile = False
+            def one_step():
+                if not train:
+                    with torch.no_grad():
+                        return step(net, xt, vt, rho, wx, wn)
+                net.zero_grad(set_to_none=True)
+                x1, _ = step(net, xt, vt, rho, wx, wn)
+                with net._timed("backward"):
+                    (x1 - xt).square().sum().backward()
+
+            one_step()  # warm-up
+            net.profile, net.timings = True, {}
+            totals = []
+            with PeakRSS() as mem:
+                for _ in range(repeat):
+                    t0 = time.perf_counter()
+                    one_step()
+                    totals.append(time.perf_counter() - t0)
+            net.profile = False
             parts = {k: v_ / repeat for k, v_ in net.timings.items()}
             mean_total = sum(totals) / repeat
             row = {"network": name, "particles": len(x), "walls": len(wx),
@@ -254,6 +263,7 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
                    "search_ms": parts.get("search", 0) * 1e3,
                    "geometry_ms": parts.get("geometry", 0) * 1e3,
                    "convolutions_ms": parts.get("convolutions", 0) * 1e3,
+                   "backward_ms": parts.get("backward", 0) * 1e3, "train": train,
                    "other_ms": (mean_total - sum(parts.values())) * 1e3,
                    "peak_mib": mem.peak_mib, "bf16": bf16}
             rows.append(row)
@@ -268,7 +278,8 @@ def _fmt_row(r):
     return (f"{r['network']:13s} {r['particles']:7d} {r['ms_per_step']:9.1f} "
             f"{r['ms_per_step_median']:8.1f} "
             f"{r['search_ms']:8.1f} {r['geometry_ms']:9.1f} {r['convolutions_ms']:8.1f} "
-            f"{r['other_ms']:7.1f} {r['peak_mib']:7.0f}")
+            f"{r['other_ms']:7.1f} {r['peak_mib']:7.0f}"
+            + (f" {r['backward_ms']:9.1f}" if r["train"] else ""))
 
 
 @click.command("model")
@@ -278,9 +289,10 @@ def _fmt_row(r):
 @click.option("--repeat", default=5, show_default=True)
 @click.option("--bf16/--no-bf16", default=False, show_default=True,
               help="bf16 GEMMs (AMX) for inference")
+@click.option("--train", is_flag=True, help="time forward + backward (a training step)")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write results here (e.g. benchmarks/model.json)")
-def model_command(particles, networks, repeat, bf16, json_path):
+def model_command(particles, networks, repeat, bf16, train, json_path):
     """ms per neural step (search included) per network and particle count."""
     from ..errors import DcdcError
 
@@ -290,9 +302,13 @@ def model_command(particles, networks, repeat, bf16, json_path):
         raise DcdcError(f"--particles must be comma-separated integers (got {particles!r})") from None
     nets = [s.strip() for s in networks.split(",") if s.strip()]
     info = machine_info()
-    click.echo(f"neural step (Δt = 0.02 s), 3-D, float32{' + bf16 GEMMs' if bf16 else ''}, "
+    if train and bf16:
+        raise DcdcError("--bf16 is for inference; leave it out with --train")
+    click.echo(f"{'training' if train else 'neural'} step (Δt = 0.02 s), 3-D, "
+               f"float32{' + bf16 GEMMs' if bf16 else ''}, "
                f"threads torch {info['torch_threads']} / numba {info['numba_threads']}")
     click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'median':>8s} {'search':>8s} {'geometry':>9s} "
-               f"{'convs':>8s} {'other':>7s} {'MiB':>7s}")
-    res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)))
+               f"{'convs':>8s} {'other':>7s} {'MiB':>7s}" + (f" {'backward':>9s}" if train else ""))
+    res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)),
+                    train=train)
     _write_json(json_path, res)
