@@ -136,19 +136,19 @@ def run(sim: Simulator, duration: float, every: Callable | None = None) -> dict:
 # ---------------------------------------------------------------------------- cases
 def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """Tank at rest: pressure gradient against ρ g, ψ error, residual speed after settling."""
-    r = 0.025 if quick else 0.0125
+    r = {(2, True): 0.0125, (2, False): 0.00625, (3, True): 0.025, (3, False): 0.0125}[dim, quick]
     W, H = 0.5, 0.5
     size = _depth_size(dim, W, H, 0.25 if quick else 0.2)
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), _const(0))],
                      [Phase("water", 1000.0)], wall_height=H + 0.2, name="hydrostatic")
     sim = Simulator(sy, cfg)
-    T = 1.5 if quick else 3.0
+    T = 2.0 if quick else 3.0
     rho0 = 1000.0
     h = sim.h
     area = float(np.prod(np.delete(size, 1)))
     height = sy.n_fluid * sim.V0 / area  # free-surface height of the fluid at rest density
-    samples = []  # (y, p) of interior particles over the last 0.5 s (SPH pressure is noisy)
-    n_avg = int(0.5 / FRAME)
+    samples = []  # (y, p) of interior particles over the last second (SPH pressure is noisy)
+    n_avg = int(1.0 / FRAME)
 
     def sample(s, f):
         if f >= int(round(T / FRAME)) - n_avg:
@@ -165,18 +165,20 @@ def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     A = np.stack([ys, np.ones(len(ys))], 1)
     slope, icpt = np.linalg.lstsq(A, ps, rcond=None)[0]
     grad_err = abs(-slope / (rho0 * G) - 1.0)
-    p_mid = slope * (height / 2) + icpt
-    mid_err = abs(p_mid / (rho0 * G * height / 2) - 1.0)
     y = sy.x[:, 1]
+    surface = float(np.percentile(y, 99.5)) + r  # measured free surface at the end
+    p_mid = slope * (surface / 2) + icpt
+    mid_err = abs(p_mid / (rho0 * G * surface / 2) - 1.0)
     psi = sim.density() / rho0
-    inner = (y > h) & (y < height - h)
+    inner = (y > h) & (y < surface - h)
     dens_err = float(np.abs(psi[inner] - 1.0).mean())
     speed = float(np.sqrt((sy.v ** 2).sum(1)).mean())
     uref = math.sqrt(G * height)
     c = f"hydrostatic {dim}D (N={sy.n_fluid})"
     return [
         Row(c, "dp/dy / (ρ0 g)", -slope / (rho0 * G), "1", "±5 %", grad_err <= 0.05),
-        Row(c, "p(H/2) / (ρ0 g H/2)", p_mid / (rho0 * G * height / 2), "1", "±5 %", mid_err <= 0.05),
+        Row(c, "p(H/2) / (ρ0 g H/2), H = surface", p_mid / (rho0 * G * surface / 2), "1", "±5 %",
+            mid_err <= 0.05),
         Row(c, "mean |ρ/ρ0 - 1|", dens_err, "0", "< 1 %", dens_err < 0.01),
         Row(c, "mean speed / sqrt(gH)", speed / uref, "0", "< 1 %", speed / uref < 0.01),
     ]
@@ -185,8 +187,10 @@ def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
 def dam_break(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """Column a × 2a collapsing on a dry floor: surge front against Martin & Moyce (1952)."""
     a = 0.4 if dim == 3 else 0.5
-    r = (0.025 if quick else 0.0125) if dim == 2 else (0.025 if quick else 0.02)
-    depth = 0.2 if dim == 3 else 1.0
+    # 3-D: one resolution (at r = 0.025 the thin late surge is two particles deep and wall
+    # friction holds it back 12 % at T = 3.3)
+    r = (0.025 if quick else 0.0125) if dim == 2 else 0.02
+    depth = 0.4 if dim == 3 else 1.0
     L = 5.0 * a
     size = _depth_size(dim, L, 2 * a, depth)
     col = _depth_size(dim, a, 2 * a, depth) + [0] * (3 - dim)
@@ -277,7 +281,7 @@ def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), layer)], phases,
                      wall_height=H + 0.3, name="four_phase")
     sim = Simulator(sy, cfg)
-    T = 6.0 if quick else 10.0
+    T = 10.0 if quick else 12.0
     stats = run(sim, T)
     area = float(np.prod(np.delete(size, 1)))
     order = [3, 2, 1, 0]

@@ -1,0 +1,67 @@
+"""``dcdc validate-sph``: the solver's physics validation suite (cases in :mod:`.cases`)."""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import click
+
+from ..errors import DcdcError
+from .cases import CASES, Row
+from .config import SPHConfig
+
+
+def validate(dim: int = 2, quick: bool = False, cases: list[str] | None = None,
+             cfg: SPHConfig | None = None, echo=None) -> list[Row]:
+    """Run the validation cases; returns all rows (``echo(row)`` is called as they come)."""
+    if dim not in (2, 3):
+        raise DcdcError(f"dim must be 2 or 3 (got {dim})")
+    names = list(CASES) if not cases else cases
+    unknown = [c for c in names if c not in CASES]
+    if unknown:
+        raise DcdcError(f"unknown validation case {unknown[0]!r} (known: {', '.join(CASES)})")
+    cfg = cfg or SPHConfig()
+    rows: list[Row] = []
+    for name in names:
+        for row in CASES[name](dim, quick, cfg):
+            rows.append(row)
+            if echo:
+                echo(row)
+    return rows
+
+
+def format_row(r: Row) -> str:
+    m = f"{r.measured:.4g}" if isinstance(r.measured, float) else str(r.measured)
+    return (f"{r.case:<38} {r.quantity:<36} {m:>10} {r.reference:>22} {r.tolerance:>16} "
+            f"{'PASS' if r.passed else 'FAIL':>5}")
+
+
+@click.command("validate-sph")
+@click.option("--quick", is_flag=True, help="coarser and shorter variants (the test suite's)")
+@click.option("--dim", type=click.Choice(["2", "3"]), default="2", show_default=True)
+@click.option("--case", "cases", multiple=True, type=click.Choice(list(CASES)),
+              help="run only this case (repeatable)")
+@click.option("--solver", type=click.Choice(["dfsph", "wcsph"]), default="dfsph", show_default=True)
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
+              help="also write the table as JSON")
+def validate_command(quick, dim, cases, solver, json_path):
+    """Physics validation of the multiphase SPH solver; exits 1 if any check fails."""
+    header = (f"{'case':<38} {'quantity':<36} {'measured':>10} {'reference':>22} "
+              f"{'tolerance':>16} {'pass':>5}")
+    click.echo(header)
+    click.echo("-" * len(header))
+    t0 = time.perf_counter()
+    rows = validate(int(dim), quick, list(cases), SPHConfig(solver=solver),
+                    echo=lambda r: click.echo(format_row(r)))
+    wall = time.perf_counter() - t0
+    n_fail = sum(not r.passed for r in rows)
+    click.echo(f"{len(rows) - n_fail}/{len(rows)} checks passed in {wall:.0f} s "
+               f"({'quick' if quick else 'full'}, {dim}-D, {solver})")
+    if json_path:
+        doc = {"dim": int(dim), "quick": quick, "solver": solver, "wall_s": wall,
+               "passed": n_fail == 0, "rows": [r.as_dict() for r in rows]}
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+    if n_fail:
+        raise SystemExit(1)
