@@ -10,7 +10,9 @@
 
 Timings are the best of ``--repeat`` runs after a warm-up (the machine is shared; the
 median is reported beside it for the whole step). Peak memory is the peak rise of
-the process's resident set during the measured runs (sampled every 2 ms). Optional: run with
+the process's resident set during the measured runs (sampled every 2 ms). ``cpu_ms_per_step``
+is the process CPU time (all threads) per step: on a shared machine it is inflated far less
+than wall time, and on an idle one wall ≈ cpu / threads for well-parallelised work. Optional: run with
 ``LD_PRELOAD=/usr/lib/x86_64-linux-gnu/libtcmalloc_minimal.so.4`` (Debian package
 ``libtcmalloc-minimal4``) — the CConv path reuses its buffers, so the gain is small.
 """
@@ -265,17 +267,20 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
             one_step()  # warm-up
             net.profile, net.timings = True, {}
             totals = []
+            cpu0 = time.process_time()
             with PeakRSS() as mem:
                 for _ in range(repeat):
                     t0 = time.perf_counter()
                     one_step()
                     totals.append(time.perf_counter() - t0)
+            cpu = (time.process_time() - cpu0) / repeat
             net.profile = False
             parts = {k: v_ / repeat for k, v_ in net.timings.items()}
             mean_total = sum(totals) / repeat
             row = {"network": name, "particles": len(x), "walls": len(wx),
                    "ms_per_step": min(totals) * 1e3,
                    "ms_per_step_median": statistics.median(totals) * 1e3,
+                   "cpu_ms_per_step": cpu * 1e3,
                    "search_ms": parts.get("search", 0) * 1e3,
                    "geometry_ms": parts.get("geometry", 0) * 1e3,
                    "convolutions_ms": parts.get("convolutions", 0) * 1e3,
@@ -295,6 +300,7 @@ def _fmt_row(r):
             f"{r['ms_per_step_median']:8.1f} "
             f"{r['search_ms']:8.1f} {r['geometry_ms']:9.1f} {r['convolutions_ms']:8.1f} "
             f"{r['other_ms']:7.1f} {r['peak_mib']:7.0f}"
+            + f" {r['cpu_ms_per_step']:8.1f}"
             + (f" {r['backward_ms']:9.1f}" if r["train"] else ""))
 
 
@@ -323,8 +329,11 @@ def model_command(particles, networks, repeat, bf16, train, json_path):
     click.echo(f"{'training' if train else 'neural'} step (Δt = 0.02 s), 3-D, "
                f"float32{' + bf16 GEMMs' if bf16 else ''}, "
                f"threads torch {info['torch_threads']} / numba {info['numba_threads']}")
+    click.echo("(ms/step: best wall time; cpu ms: CPU time of all threads per step, which "
+               "load from other processes inflates less)")
     click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'median':>8s} {'search':>8s} {'geometry':>9s} "
-               f"{'convs':>8s} {'other':>7s} {'MiB':>7s}" + (f" {'backward':>9s}" if train else ""))
+               f"{'convs':>8s} {'other':>7s} {'MiB':>7s} {'cpu ms':>8s}"
+               + (f" {'backward':>9s}" if train else ""))
     res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)),
                     train=train)
     _write_json(json_path, res)
