@@ -108,33 +108,59 @@ def _draw(rng, seed, cfg, sp) -> dict:
         region_lo = np.array([-R, 0.0] + ([-R] if d == 3 else []))
         region_hi = np.array([R, R] + ([R] if d == 3 else []))
     ext = region_hi - region_lo
-    # obstacles in the lower part of the container
+    # obstacles in the lower part of the container, at least 3 spacings from the container
+    # walls and from each other (narrow gaps would trap single particles)
     n_obs = int(rng.integers(0, 3)) if cfg.obstacles else 0
-    obstacle_boxes = []  # generous bounding boxes, kept free of fluid
+    obstacle_boxes = []  # bounding boxes grown by 2 spacings, kept free of fluid
+    gap = 3 * sp
     for k in range(n_obs):
-        kind = rng.choice(["sphere", "cylinder", "box", "mesh"])
-        c = region_lo + ext * rng.uniform(0.2, 0.8, d)
-        c[1] = region_lo[1] + ext[1] * rng.uniform(0.1, 0.35)
+        kind = str(rng.choice(["sphere", "cylinder", "box", "mesh"]))
         size = float(rng.uniform(0.08, 0.18))
-        c = [round(float(v), 3) for v in c]
-        half = np.full(d, 0.6 if kind == "cylinder" else 1.4 * size) + 2 * sp
-        obstacle_boxes.append((np.array(c) - half, np.array(c) + half))
         if kind == "sphere":
-            walls[f"obstacle{k}"] = {"shape": "sphere", "center": c, "radius": round(size, 3)}
+            spec = {"shape": "sphere", "radius": round(size, 3)}
+            half = np.full(d, size)
         elif kind == "cylinder":
-            walls[f"obstacle{k}"] = {"shape": "cylinder", "center": c, "radius": round(size, 3),
-                                     "height": round(float(rng.uniform(0.2, 0.5)), 3),
-                                     "axis": int(rng.choice([1, 2] if d == 3 else [1]))}
+            hgt, axis = float(rng.uniform(0.2, 0.5)), int(rng.choice([1, 2] if d == 3 else [1]))
+            spec = {"shape": "cylinder", "radius": round(size, 3), "height": round(hgt, 3), "axis": axis}
+            half = np.full(d, size)
+            half[axis] = hgt / 2
         elif kind == "box":
-            h = rng.uniform(0.06, 0.18, d)
-            walls[f"obstacle{k}"] = {"shape": "box", "min": [round(float(a - b), 3) for a, b in zip(c, h)],
-                                     "max": [round(float(a + b), 3) for a, b in zip(c, h)]}
+            half = np.round(rng.uniform(0.06, 0.18, d), 3)
+            spec = {"shape": "box"}
         else:
-            t = c + ([0.0] if d == 2 else [])
-            walls[f"obstacle{k}"] = {"shape": "mesh", "file": str(rng.choice(MESH_ASSETS)),
-                                     "scale": round(size * 1.2, 3), "translate": [round(v, 3) for v in t]}
-            if d == 2:
-                walls[f"obstacle{k}"]["translate"][2] = 0.0
+            spec = {"shape": "mesh", "file": str(rng.choice(MESH_ASSETS)), "scale": round(size, 3)}
+            half = np.full(d, 1.2 * size)
+        if container == "box":
+            lo_c = region_lo + half + gap
+            hi_c = region_hi - half - gap
+            hi_c[1] = lo_c[1] + 0.35 * ext[1]
+            if np.any(hi_c <= lo_c):
+                continue
+            c = rng.uniform(lo_c, hi_c)
+        else:
+            A = np.zeros(d)
+            A[1] = region_hi[1]  # centre of the bowl's sphere
+            reach = (region_hi[1] - gap) - np.linalg.norm(half)
+            if reach <= 0:
+                continue
+            u = rng.normal(size=d)
+            u[1] = -abs(u[1]) - 0.5
+            c = A + u / np.linalg.norm(u) * rng.uniform(0, reach)
+            if c[1] + half[1] > 0.9 * region_hi[1]:
+                continue
+        if any(np.all(c - half - gap < bh) and np.all(c + half + gap > bl) for bl, bh in obstacle_boxes):
+            continue
+        c = np.round(c, 3)
+        obstacle_boxes.append((c - half - 2 * sp, c + half + 2 * sp))
+        cl = [float(v) for v in c]
+        if kind == "box":
+            spec.update({"min": [round(float(v), 3) for v in c - half],
+                         "max": [round(float(v), 3) for v in c + half]})
+        elif kind == "mesh":
+            spec["translate"] = cl + [0.0] * (3 - d)
+        else:
+            spec["center"] = cl
+        walls[f"obstacle{k}"] = spec
     # fluid blocks: disjoint lattice-aligned boxes (fills of the bowl)
     n_phases_min = 2 if cfg.min_ratio > 1 else 1
     choices = np.arange(max(1, n_phases_min), cfg.max_blocks + 1)
