@@ -92,6 +92,7 @@ def machine_info() -> dict:
             "torch_threads": torch.get_num_threads(), "numba_threads": numba.get_num_threads(),
             "torch": torch.__version__, "ld_preload": os.environ.get("LD_PRELOAD", ""),
             "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY", ""),
+            "loadavg_1_5_15min": [round(v, 2) for v in os.getloadavg()],
             "time": time.strftime("%Y-%m-%d %H:%M:%S")}
 
 
