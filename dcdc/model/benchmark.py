@@ -195,7 +195,8 @@ def cconv_command(particles, channels, kernel_size, repeat, bf16, torch_backend,
     s = res["setup"]
     click.echo(f"CConv {s['channels']}, kernel {s['kernel']}, {s['particles']} particles, "
                f"{s['mean_neighbors']:.1f} neighbours, threads torch "
-               f"{res['machine']['torch_threads']} / numba {res['machine']['numba_threads']}")
+               f"{res['machine']['torch_threads']} / numba {res['machine']['numba_threads']}, "
+               f"load average {res['machine']['loadavg_1_5_15min'][0]}")
     click.echo(f"geometry (search + cells/weights): {s['geometry_s'] * 1e3:.0f} ms; GEMM bound: "
                f"fwd {s['gemm_bound_fwd_s'] * 1e3:.0f} ms, fwd+bwd "
                f"{s['gemm_bound_fwd_bwd_s'] * 1e3:.0f} ms ({s['gemm_gflops']:.0f} GFLOP/s); same GEMM "
@@ -329,7 +330,8 @@ def model_command(particles, networks, repeat, bf16, train, json_path):
         raise DcdcError("--bf16 is for inference; leave it out with --train")
     click.echo(f"{'training' if train else 'neural'} step (Δt = 0.02 s), 3-D, "
                f"float32{' + bf16 GEMMs' if bf16 else ''}, "
-               f"threads torch {info['torch_threads']} / numba {info['numba_threads']}")
+               f"threads torch {info['torch_threads']} / numba {info['numba_threads']}, "
+               f"load average {info['loadavg_1_5_15min'][0]}")
     click.echo("(ms/step: best wall time; cpu ms: CPU time of all threads per step, which "
                "load from other processes inflates less)")
     click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'median':>8s} {'search':>8s} {'geometry':>9s} "
