@@ -317,3 +317,17 @@ def test_continuous_densities_choose_the_per_edge_path():
     ctx2 = net.prepare(x, np.round(rho, -3), wx)
     assert ctx2.plan.mode == "classes"
     assert torch.isfinite(net(x, v, rho, wx, wn, ctx=ctx)).all()
+
+
+def test_step_from_particle_system():
+    from dcdc.model.integrator import system_inputs
+    from dcdc.particles import ParticleSystem, Phase
+
+    x, v, rho, wx, wn = _scene(2, 5)
+    ps = ParticleSystem(2, 0.025, x, v, (rho > 1000).astype(int),
+                        [Phase("light", 500.0), Phase("heavy", 2000.0)], wx, wn, (0, -9.81),
+                        (np.full(2, -1.0), np.full(2, 1.0)))
+    net = _net("dcdc", 2)
+    x1, v1 = step(net, **system_inputs(ps), dt=0.02)
+    x2, v2 = step(net, x, v, ps.rest_density, wx, wn, dt=0.02, gravity=(0, -9.81))
+    torch.testing.assert_close(x1, x2)

@@ -66,3 +66,15 @@ def rollout(model, x, v, density, wall_x=None, wall_n=None, n_steps: int = 1,
         if callback is not None:
             callback(k, x, v)
     return x, v
+
+
+def system_inputs(system) -> dict:
+    """Keyword arguments of :func:`step` / :func:`rollout` from a
+    :class:`~dcdc.particles.ParticleSystem`: x, v, per-particle rest density, walls, gravity.
+
+    Emitted particles (``birth`` > t) are the caller's business: select the live ones first.
+    """
+    return {"x": torch.from_numpy(system.x), "v": torch.from_numpy(system.v),
+            "density": torch.from_numpy(system.rest_density),
+            "wall_x": system.wall_x, "wall_n": system.wall_n,
+            "gravity": torch.from_numpy(system.gravity)}
