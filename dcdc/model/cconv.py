@@ -20,8 +20,9 @@ per edge the 2^d corner cells and weights (interpolation × window [/ window sum
 computed once (:func:`build_geometry`) and shared by every layer on the same point sets.
 A layer then either *spreads* Σ_edges weight·f_j into a per-receiver [cells·C_in] buffer and
 applies one GEMM with the [cells·C_in, C_out] filter, or (when C_out ≤ C_in / 4, e.g. the
-64 → 3 output layer) multiplies the features by the filter first and *collects* per edge. The backward pass reuses the same
-kernels on the edges grouped by sender (the transposed list), applied to grad_out:
+64 → 3 output layer) multiplies the features by the filter first and *collects* per edge.
+The backward pass reuses the same kernels on the edges grouped by sender (the transposed
+list), applied to grad_out:
 ``B = spread_by_sender(grad_out)``, ``grad_f = B @ W'ᵀ``, ``grad_W = fᵀ @ B``. Rows are
 processed in cache-sized chunks through one reused buffer per call. No atomics anywhere:
 every kernel owns its output rows, so results are deterministic.
