@@ -79,27 +79,37 @@ def run_ours(system: ParticleSystem, duration: float, cfg: SPHConfig | None = No
 
 
 def run_splishsplash_if_available(system: ParticleSystem, duration: float) -> list[dict] | str:
+    """The same scene in SPlisHSPlasH (DFSPH and IISPH) through ``dcdc.sph.splishsplash``
+    (another module's runner; it runs the library in a child process)."""
     try:
-        from .splishsplash import run_splishsplash  # written by the SPlisHSPlasH runner's owner
-        import pysplishsplash  # noqa: F401
+        from .splishsplash import available, run_splishsplash
     except ImportError:
+        return "SPlisHSPlasH not installed"
+    if not available():
         return "SPlisHSPlasH not installed"
     out = []
     for solver in ("DFSPH", "IISPH"):
         try:
-            out.append(run_splishsplash(system, duration, solver))
-        except Exception as e:  # a foreign solver that explodes is a result, not our crash
-            out.append({"solver": f"SPlisHSPlasH {solver}", "error": str(e).splitlines()[0]})
+            res = run_splishsplash(system, duration, solver)
+        except Exception as e:  # a foreign solver failing is a result, not our crash
+            res = {"status": f"failed: {str(e).splitlines()[0] if str(e) else type(e).__name__}"}
+        res["solver"] = f"SPlisHSPlasH {solver}"
+        out.append(res)
     return out
 
 
 def _row(r: dict) -> str:
-    if "error" in r:
-        return f"{r.get('solver', '?'):<22} {r.get('ratio', ''):>6}  failed: {r['error']}"
-    return (f"{r['solver']:<22} {r.get('ratio', ''):>6} {r['fluid_particles']:>8} "
-            f"{r.get('threads', ''):>7} {r['wall_s_per_simulated_s']:>10.2f} "
-            f"{r['ms_per_substep']:>9.1f} {r['mean_substep_ms']:>9.2f} "
-            f"{r.get('pressure_iterations_per_substep', float('nan')):>8.1f}")
+    head = f"{r.get('solver', '?'):<22} {r.get('ratio', ''):>6}"
+    status = r.get("status", "ok")
+    if "wall_s_per_simulated_s" not in r or r.get("wall_s_per_simulated_s") is None:
+        return f"{head}  {status}"
+    ms = r.get("ms_per_substep", r.get("ms_per_step", float("nan")))
+    dt = r.get("mean_substep_ms", 1e3 * (r.get("mean_dt") or float("nan")))
+    its = r.get("pressure_iterations_per_substep", r.get("mean_iterations"))
+    its = float("nan") if its is None else its
+    line = (f"{head} {r['fluid_particles']:>8} {r.get('threads', ''):>7} "
+            f"{r['wall_s_per_simulated_s']:>10.2f} {ms:>9.1f} {dt:>9.2f} {its:>8.1f}")
+    return line if status == "ok" else f"{line}  {status} (max speed {r.get('max_speed', 0):.3g} m/s)"
 
 
 @click.command("sph")

@@ -11,9 +11,10 @@ import numpy as np
 @nb.njit(cache=True)
 def init(Ap, rhs, mask, minv, r, z, d):
     """r = A p - rhs (the residual of -A p = -rhs), z = M⁻¹ r, d = z on ``mask``; returns
-    (Σ|r|, r·z)."""
+    (Σ|r|, max|r|, r·z)."""
     n = len(r)
     sa = 0.0
+    mx = 0.0
     rz = 0.0
     for i in range(n):
         if mask[i]:
@@ -25,8 +26,9 @@ def init(Ap, rhs, mask, minv, r, z, d):
         z[i] = zi
         d[i] = zi
         sa += abs(ri)
+        mx = max(mx, abs(ri))
         rz += ri * zi
-    return sa, rz
+    return sa, mx, rz
 
 
 @nb.njit(cache=True)
@@ -43,17 +45,19 @@ def negate_masked_dot(Ad, d, mask):
 
 @nb.njit(cache=True)
 def step(p, r, d, Ad, minv, alpha):
-    """p += α d, r -= α A d; returns (Σ|r|, r·M⁻¹r)."""
+    """p += α d, r -= α A d; returns (Σ|r|, max|r|, r·M⁻¹r)."""
     n = len(p)
     sa = 0.0
+    mx = 0.0
     rz = 0.0
     for i in range(n):
         p[i] += alpha * d[i]
         ri = r[i] - alpha * Ad[i]
         r[i] = ri
         sa += abs(ri)
+        mx = max(mx, abs(ri))
         rz += ri * minv[i] * ri
-    return sa, rz
+    return sa, mx, rz
 
 
 @nb.njit(cache=True)

@@ -166,9 +166,7 @@ class Simulator:
         if cfg.solver == "wcsph":
             vmax += wcsph.max_sound_speed(s.rho0, self._sound_speed)
         dx = cfg.cfl * 2.0 * self.system.radius
-        dt = cfg.dt_max
-        if vmax > 0:
-            dt = min(dt, dx / vmax)
+        dt = min(cfg.dt_max, dx / max(vmax, cfg.speed_floor))
         if g > 0:  # a particle starting at rest must not cross cfl·2r within one substep either
             dt = min(dt, math.sqrt(2.0 * dx / g))
         if dt < cfg.dt_min:

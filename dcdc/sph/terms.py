@@ -8,14 +8,16 @@ Notation (docs/sph.md gives the derivation). Every fluid particle has the same r
       ψ_i = ρ_i / ρ0_i = V0 Σ_j W_ij + Σ_b V_b W_ib
 * its rate of change (continuity equation)
       Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + Σ_b V_b v_i·G_ib
-* volume-symmetric pressure acceleration
-      a_i = -(1 / ρ0_i) [ V0 Σ_j (p_i + p_j) G_ij + p_i Σ_b V_b G_ib ]
-  i.e. the force F_i = m_i a_i = -Σ_j V0² (p_i + p_j) G_ij - ... . The pair force V0² (p_i + p_j) G_ij is antisymmetric and independent of the phases' rest
-  densities, so a heavy/light interface feels the same force on both sides (momentum is
-  conserved) and each side accelerates by force / own mass. The force is the negative
-  adjoint of the compression rate (Σ_i V0 p_i Dψ_i/Dt = -Σ_i v_i·F_i), so pressure does no
-  work on a flow that keeps ψ constant; mirroring the pressure into the wall (factor 2 on
-  the wall term) breaks this and was measured to pump energy into a tank at rest.
+* volume-symmetric pressure acceleration (β = 1)
+      a_i = -(1 / ρ0_i) [ V0 Σ_j (p_i + p_j) G_ij + β p_i Σ_b V_b G_ib ]
+  i.e. the force F_i = m_i a_i; the pair force -V0² (p_i + p_j) G_ij is antisymmetric and
+  independent of the phases' rest densities, so a heavy/light interface feels the same
+  force on both sides (momentum is conserved) and each side accelerates by force / own mass.
+  With β = 1 the force is the negative adjoint of the compression rate (Σ_i V0 p_i Dψ_i/Dt
+  = -Σ_i v_i·F_i): pressure does no work on a flow that keeps ψ constant, and the pressure
+  operator p -> Dψ/Dt(a(p)) is symmetric. Mirroring the pressure into the wall (β = 2 in the
+  force only) pumped energy into a tank at rest; β = 2 in force and rate (symmetric again)
+  left a 3-D tank at rest agitated at 3.5 % of sqrt(gH) (measured, docs/sph.md).
 * viscosity: Morris et al. (1997) Laplacian with harmonic-mean dynamic viscosity
       a_i = 2(d+2) V0/ρ0_i Σ_j μ_ij (v_ij·x_ij)/(|x_ij|² + 0.01 h²) G_ij  (+ wall friction)
 * cohesion (optional surface tension): Akinci, Akinci & Teschner (2013) eq. 1, same phase.
@@ -72,8 +74,9 @@ def compression(rs, W, rsb, idxb, Wb, Vb, V0):
 
 
 @nb.njit(cache=True, parallel=True)
-def compression_rate(v, rs, idx, G, rsb, idxb, Gb, Vb, V0):
-    """Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + Σ_b V_b v_i·G_ib (static walls)."""
+def compression_rate(v, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
+    """Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + β Σ_b V_b v_i·G_ib (static walls; β = 1 is the
+    exact rate, β = 2 the adjoint of the mirrored-pressure wall force)."""
     n, d = v.shape
     out = np.empty(n)
     for i in nb.prange(n):
@@ -87,13 +90,13 @@ def compression_rate(v, rs, idx, G, rsb, idxb, Gb, Vb, V0):
             vb = Vb[idxb[e]]
             for k in range(d):
                 sb += vb * v[i, k] * Gb[e, k]
-        out[i] = V0 * s + sb
+        out[i] = V0 * s + beta * sb
     return out
 
 
 @nb.njit(cache=True, parallel=True)
-def pressure_acceleration(p, rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, out):
-    """a_i = -(1/ρ0_i) [V0 Σ_j (p_i + p_j) G_ij + p_i Σ_b V_b G_ib], written to ``out``."""
+def pressure_acceleration(p, rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, out, beta=1.0):
+    """a_i = -(1/ρ0_i) [V0 Σ_j (p_i + p_j) G_ij + β p_i Σ_b V_b G_ib], written to ``out``."""
     n, d = out.shape
     for i in nb.prange(n):
         pi = p[i]
@@ -105,18 +108,18 @@ def pressure_acceleration(p, rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, out):
             for k in range(d):
                 out[i, k] += f * G[e, k]
         for e in range(rsb[i], rsb[i + 1]):
-            f = c * pi * Vb[idxb[e]]
+            f = c * beta * pi * Vb[idxb[e]]
             for k in range(d):
                 out[i, k] += f * Gb[e, k]
     return out
 
 
 @nb.njit(cache=True, parallel=True)
-def pressure_diagonal(rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0):
+def pressure_diagonal(rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
     """Diagonal A_ii of the map p -> D(a(p)) (compression rate of the pressure acceleration).
 
     With S_f = V0 Σ_j G_ij, S_b = Σ_b V_b G_ib:
-        A_ii = -(1/ρ0_i) |S_f + S_b|² - V0² Σ_j |G_ij|² / ρ0_j   (< 0)
+        A_ii = -(1/ρ0_i) |S_f + β S_b|² - V0² Σ_j |G_ij|² / ρ0_j   (< 0)
     """
     n = len(rs) - 1
     d = G.shape[1]
@@ -142,7 +145,7 @@ def pressure_diagonal(rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0):
         f0 *= V0
         f1 *= V0
         f2 *= V0
-        dot = (f0 + b0) ** 2 + (f1 + b1) ** 2 + (f2 + b2) ** 2
+        dot = (f0 + beta * b0) ** 2 + (f1 + beta * b1) ** 2 + (f2 + beta * b2) ** 2
         out[i] = -dot / rho0[i] - V0 * V0 * lap
     return out
 
