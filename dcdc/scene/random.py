@@ -33,6 +33,7 @@ class RandomSceneConfig:
     max_speed: float = 1.0
     obstacles: bool = True
     radius: float = 0.025
+    min_particles: int | None = None  # redraw scenes with fewer fluid particles (default 150 / 1200)
 
     def check(self):
         lo, hi = self.density_range
@@ -75,8 +76,9 @@ def random_scene(seed: int, cfg: RandomSceneConfig | None = None) -> dict:
     for attempt in range(100):
         try:
             scene = _draw(rng, seed, cfg, sp)
-            Scene(validate(scene, "", f"random seed {seed}")).realize()
-            return scene
+            n = Scene(validate(scene, "", f"random seed {seed}")).realize().n_fluid
+            if n >= (cfg.min_particles if cfg.min_particles is not None else (150 if d == 2 else 1200)):
+                return scene
         except DcdcError:
             continue  # overlapping draw: try again with the same generator (reproducible)
     raise DcdcError(f"could not draw a valid random scene for seed {seed} in 100 attempts")
