@@ -83,6 +83,13 @@ def test_resume_skips_and_redoes_unfinished(ballistic, tmp_path):
         assert np.array_equal(Dataset(out)[name].position, ref[name].position)
 
 
+def test_resume_with_other_settings_is_refused(tmp_path):
+    generate(random_jobs(1, 0, CFG2, duration=0.06), tmp_path, simulator="ballistic", progress=False)
+    other = random_jobs(1, 0, RandomSceneConfig(dim=2, max_ratio=2.0), duration=0.06)
+    with pytest.raises(DcdcError, match="other settings"):
+        generate(other, tmp_path, simulator="ballistic", progress=False)
+
+
 def test_shards_partition_the_jobs(tmp_path):
     jobs = random_jobs(5, 10, CFG2, duration=0.06)
     for i in range(3):

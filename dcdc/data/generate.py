@@ -50,6 +50,16 @@ class Job:
     solver_overrides: dict | None = None
     random_cfg: dict | None = None
 
+    def key(self) -> str:
+        """What determines this trajectory: a resumed run must ask for the same thing."""
+        import hashlib
+        d = {"source": self.source, "dim": self.dim, "resolution": self.resolution,
+             "duration": self.duration, "random_cfg": self.random_cfg,
+             "solver_overrides": self.solver_overrides,
+             "scene": None if self.random_cfg is not None else
+             hashlib.sha1(self.scene_text.encode()).hexdigest()}
+        return json.dumps(d, sort_keys=True, default=list)
+
     def text(self) -> str:
         if self.scene_text is None:
             from ..scene.random import RandomSceneConfig, random_scene_text
@@ -206,6 +216,7 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         wall = time.time() - t0
         attrs = {
             "name": job.name, "scene": scene.name, "scene_toml": job.text(), "source": job.source,
+            "job_key": job.key(),
             "scene_dim": scene.dim, "resolution": job.resolution, "seed": job.seed,
             "split": job.split, "frame_dt": fdt, "duration": n_frames * fdt,
             "solver": solver_name, "solver_settings": json.dumps(settings_used, sort_keys=True),
@@ -223,6 +234,15 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         rec.update(status="failed", error=str(e), wall_time_s=round(time.time() - t0, 3))
         _write_json(out_dir / f"{job.name}.failed.json", rec)
     return rec
+
+
+def _check_same_job(path: Path, job: Job) -> None:
+    import h5py
+    with h5py.File(path, "r") as f:
+        stored = f[job.name].attrs.get("job_key", None) if job.name in f else None
+    if stored is not None and stored != job.key():
+        raise DcdcError(f"{path} was generated with other settings than this run asks for "
+                        f"(scene, options or solver overrides differ); use another --out directory")
 
 
 def _jsonable(d):
@@ -255,6 +275,7 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
     todo, skipped = [], []
     for j in mine:
         if is_complete(out_dir / f"{j.name}.h5"):
+            _check_same_job(out_dir / f"{j.name}.h5", j)
             skipped.append(j.name)
         elif (out_dir / f"{j.name}.failed.json").exists() and not retry_failed:
             skipped.append(j.name)
