@@ -215,3 +215,11 @@ def test_parallel_workers_match_serial(ballistic, tmp_path):
     ref = Dataset(ballistic)
     for t in Dataset(tmp_path / "p"):
         assert np.array_equal(t.position, ref[t.name].position)
+
+
+def test_scene_file_with_relative_mesh_and_emitter(tmp_path):
+    r = cli("generate", "examples/my_scene.toml", "--dim", "2", "--duration", "0.1", "--simulator",
+            "ballistic", "--no-progress", "-o", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    t = Dataset(tmp_path)["pour_over_pillar_2d"]
+    assert (t.birth > 0).any() and "pillar.obj" in t.attrs["scene_toml"]

@@ -194,7 +194,8 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         stale.unlink(missing_ok=True)  # left by a killed run of this same job
     rec = {"name": job.name, "source": job.source, "dim": job.dim, "seed": job.seed}
     try:
-        scene = parse(job.text(), job.source)
+        src_path = None if job.source.startswith(("builtin:", "random:")) else Path(job.source)
+        scene = parse(job.text(), src_path.name if src_path else job.source, src_path)
         system = scene.realize(dim=job.dim, resolution=job.resolution)
         settings = {**scene.solver, **(job.solver_overrides or {})}
         sim, solver_name, settings_used = make_simulator(simulator, system, settings)
