@@ -331,3 +331,18 @@ def test_step_from_particle_system():
     x1, v1 = step(net, **system_inputs(ps), dt=0.02)
     x2, v2 = step(net, x, v, ps.rest_density, wx, wn, dt=0.02, gravity=(0, -9.81))
     torch.testing.assert_close(x1, x2)
+
+
+def test_unconditioned_antisymmetric_layer_pair_terms_cancel():
+    from dcdc.model.layers import AntisymCConvLayer
+
+    x, _, rho, _, _ = _scene(2, 7)
+    torch.manual_seed(0)
+    layer = AntisymCConvLayer(4, 2, 2, conditioned=False).double()
+    geom = build_geometry(x, radius=R)
+    F = torch.randn(len(x), 4, dtype=torch.float64)
+    out = layer(F, geom, DensityPlan(geom, rho))
+    assert out.sum(0).abs().max() < 1e-12 * out.abs().sum()
+    ref = reference_cconv(x, x, F.numpy(), layer.filter().detach().numpy(), R,
+                          edge_features=lambda i, j: (F[i] + F[j]).numpy())
+    np.testing.assert_allclose(out.detach().numpy(), ref, rtol=1e-6, atol=1e-12)

@@ -92,8 +92,7 @@ class AntisymCConvLayer(CConvLayer):
     def forward(self, features: torch.Tensor, geom: ConvGeometry, plan: DensityPlan,
                 embedding: DensityEmbedding | None = None) -> torch.Tensor:
         if self.modulation is None:
-            rows = features[plan._recv_t.to(features.device)] + features[plan._send_t.to(features.device)]
-            return self.conv(rows, plan.edge_geom)
+            return self.conv(*plan.plain_symmetric_edges(features))
         if plan.mode == "classes":
             # exact split of the per-edge sum, without E × C rows (see DensityPlan.symmetric_split)
             rows, pgeom, h, S = plan.symmetric_split(features, self.modulation, embedding)

@@ -151,6 +151,15 @@ class DensityPlan:
         self._recv_t = torch.from_numpy(self.recv)
         self._send_t = torch.from_numpy(self.send)
 
+    def edge_index(self, device) -> tuple[torch.Tensor, torch.Tensor]:
+        """(receiver, sender) particle index of every edge, int64 tensors on ``device``."""
+        return self._recv_t.to(device), self._send_t.to(device)
+
+    def plain_symmetric_edges(self, f: torch.Tensor):
+        """Per-edge rows f_i + f_j (the unconditioned antisymmetric layer)."""
+        i, j = self.edge_index(f.device)
+        return f[i] + f[j], self.edge_geom
+
     @property
     def edge_geom(self) -> ConvGeometry:
         """The geometry with one virtual sender per edge (injective)."""
@@ -173,7 +182,7 @@ class DensityPlan:
             rows = gam[a, jc] * f[j] + bet[a, jc]
             return rows, self.pair_geom
         e = self._embed(embedding, f, self.rho)  # [N, d_e]
-        i, j = self._recv_t.to(dev), self._send_t.to(dev)
+        i, j = self.edge_index(dev)
         gam, bet = mod(e[i], e[j], eref)
         return gam * f[j] + bet, self.edge_geom
 
@@ -181,7 +190,7 @@ class DensityPlan:
         """Per-edge rows Γˢ_ij = γˢ_ij ⊙ (f_i + f_j) + βˢ_ij, symmetric in (i, j)."""
         eref = embedding.reference(f)
         dev = f.device
-        i, j = self._recv_t.to(dev), self._send_t.to(dev)
+        i, j = self.edge_index(dev)
         pair = f[i] + f[j]
         if self.mode == "classes":
             e = self._embed(embedding, f, self.uniq)
