@@ -26,7 +26,7 @@ from .solver import Simulator
 def benchmark_system(ratio: float, n_target: int = 10000, dim: int = 3,
                      radius: float = DEFAULT_RADIUS) -> ParticleSystem:
     """Tank with a fluid block W × W/2 (× 0.8 W) of about ``n_target`` particles, its left
-    half of density 1000 and its right half 1000/``ratio``; walls 0.3 m above the fluid."""
+    half of density 1000 and its right half 1000/``ratio``; walls twice the fluid height (the light phase jets up at 10:1)."""
     if not (math.isfinite(ratio) and ratio >= 1.0):
         raise DcdcError(f"density ratio must be >= 1 (got {ratio})")
     if n_target < 8:
@@ -40,7 +40,7 @@ def benchmark_system(ratio: float, n_target: int = 10000, dim: int = 3,
     split = lambda pts: np.where(pts[:, 0] < W / 2, 0, 1)  # noqa: E731
     phases = [Phase("heavy", 1000.0), Phase("light", 1000.0 / ratio)]
     return tank_system(dim, radius, size, [(np.zeros(3), size + [0] * (3 - dim), split)], phases,
-                       wall_height=size[1] + 0.3, name=f"benchmark_{ratio:g}to1")
+                       wall_height=2 * size[1] + 0.2, name=f"benchmark_{ratio:g}to1")
 
 
 def run_ours(system: ParticleSystem, duration: float, cfg: SPHConfig | None = None) -> dict:
@@ -120,7 +120,9 @@ def _row(r: dict) -> str:
 @click.option("--ratios", default="2,10", show_default=True, help="density ratios to run")
 @click.option("--dim", type=click.Choice(["2", "3"]), default="3", show_default=True)
 @click.option("--solver", type=click.Choice(["dfsph", "wcsph"]), default="dfsph", show_default=True)
-def benchmark_command(json_path, particles, duration, ratios, dim, solver):
+@click.option("--splishsplash/--no-splishsplash", default=True, show_default=True,
+              help="also run the scene in SPlisHSPlasH when it is installed")
+def benchmark_command(json_path, particles, duration, ratios, dim, solver, splishsplash):
     """Wall seconds per simulated second of the multiphase SPH solver (2:1 and 10:1)."""
     try:
         rs = [float(v) for v in ratios.split(",") if v.strip()]
@@ -131,6 +133,15 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver):
     if not duration > 0:
         raise DcdcError(f"--duration must be > 0 (got {duration})")
     results = []
+
+    def save():  # after every run, so an interrupted benchmark keeps what it measured
+        if json_path:
+            doc = {"machine": {"cpu": platform.processor() or platform.machine(),
+                               "python": platform.python_version()},
+                   "duration_s": duration, "results": results}
+            Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+            Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+
     click.echo(f"{'solver':<22} {'ratio':>6} {'fluid':>8} {'threads':>7} {'wall s/s':>10} "
                f"{'ms/step':>9} {'dt ms':>9} {'iters':>8}")
     for ratio in rs:
@@ -139,18 +150,17 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver):
         res["ratio"] = f"{ratio:g}:1"
         results.append(res)
         click.echo(_row(res))
+        save()
+        if not splishsplash:
+            continue
         other = run_splishsplash_if_available(benchmark_system(ratio, particles, int(dim)), duration)
         if isinstance(other, str):
             click.echo(other)
-        else:
-            for o in other:
-                o.setdefault("ratio", f"{ratio:g}:1")
-                results.append(o)
-                click.echo(_row(o))
+            continue
+        for o in other:
+            o.setdefault("ratio", f"{ratio:g}:1")
+            results.append(o)
+            click.echo(_row(o))
+            save()
     if json_path:
-        doc = {"machine": {"cpu": platform.processor() or platform.machine(),
-                           "python": platform.python_version()},
-               "duration_s": duration, "results": results}
-        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-        Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
         click.echo(f"wrote {json_path}")
