@@ -139,6 +139,13 @@ def test_all_builtins_load_in_2d_and_3d():
     assert len(get_scene("canyon").data["phases"]) == 3
 
 
+def test_wavy_blocks_tile_without_gap():
+    s = get_scene("rayleigh_taylor").realize(dim=2)
+    assert s.n_fluid == 20 * 38  # the 1.0 x 1.9 m fluid region, fully tiled
+    heavy = s.phase == 1
+    assert s.x[heavy, 1].min() < 1.0 - 0.05 and s.x[~heavy, 1].max() > 1.0 + 0.05  # wavy interface
+
+
 def test_resolution_scales_counts():
     sc = get_scene("dam_break")
     a, b = sc.realize(dim=2), sc.realize(dim=2, resolution=0.5)

@@ -434,15 +434,17 @@ def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, sol
     if shape == "box":
         lo, hi = np.array(f["min"]), np.array(f["max"])
         top, bot = f["top_wave"], f["bottom_wave"]
+        if not (top or bot):
+            return lattice(lo + spacing / 2, hi - spacing / 2, spacing, anchor)
+        # wavy faces y = face + a cos(2 pi (x - min_x) / wavelength); flat faces as usual
         ext = np.zeros(dim)
-        ext[1] = max(abs(top[0]) if top else 0.0, abs(bot[0]) if bot else 0.0)
+        ext[1] = max(abs(top[0]) if top else 0.0, abs(bot[0]) if bot else 0.0) + spacing / 2
         pts = lattice(lo + spacing / 2 - ext, hi - spacing / 2 + ext, spacing, anchor)
-        keep = (pts[:, 1] >= lo[1]) & (pts[:, 1] <= hi[1]) if not (top or bot) else \
-            np.ones(len(pts), dtype=bool)
-        x0 = pts[:, 0] - lo[0]
-        # a wavy face y = face + a cos(2 pi x / wavelength); flat faces stay at the box
-        keep &= pts[:, 1] < (hi[1] + top[0] * np.cos(2 * np.pi * x0 / top[1]) if top else hi[1])
-        keep &= pts[:, 1] >= (lo[1] + bot[0] * np.cos(2 * np.pi * x0 / bot[1]) if bot else lo[1])
+        x0, y = pts[:, 0] - lo[0], pts[:, 1]
+        keep = (y < hi[1] + top[0] * np.cos(2 * np.pi * x0 / top[1])) if top else \
+            (y <= hi[1] - spacing / 2 + 1e-9)
+        keep &= (y >= lo[1] + bot[0] * np.cos(2 * np.pi * x0 / bot[1])) if bot else \
+            (y >= lo[1] + spacing / 2 - 1e-9)
         pts = pts[keep]
         return pts
     if shape == "sphere":
