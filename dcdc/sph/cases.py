@@ -47,8 +47,9 @@ class Row:
 
 # ---------------------------------------------------------------------------- scene building
 def tank_system(dim: int, r: float, size, blocks, phases: list[Phase], wall_height=None,
-                name: str = "tank") -> ParticleSystem:
-    """Open-top tank with inner box [0, size] (walls ``wall_height`` tall) and fluid blocks.
+                name: str = "tank", closed: bool = False) -> ParticleSystem:
+    """Tank with inner box [0, size] (walls ``wall_height`` tall; a lid there if ``closed``,
+    which keeps the jets of a 10:1 collapse in the tank) and fluid blocks.
 
     ``blocks``: list of (lo, hi, phase_of) where ``phase_of(points) -> phase index or -1``
     may split a block between phases (or drop points). Fluid sits on the lattice
@@ -68,10 +69,11 @@ def tank_system(dim: int, r: float, size, blocks, phases: list[Phase], wall_heig
         ph.append(idx[keep])
     x = np.concatenate(xs)
     phase = np.concatenate(ph)
-    sdf = container(lo - r, top + r)
+    sdf = container(lo - r, top + r, open_top=not closed)
     pad = 2 * s + 0.5 * r
     whi = top + r + pad
-    whi[1] = top[1] + r
+    if not closed:
+        whi[1] = top[1] + r
     wx, wn = sample_walls(sdf, lo - r - pad, whi, s, 2 * s, anchor=lo - r)
     dom_lo = lo - 2 * s - 0.05
     dom_hi = top + 2 * s + 0.05
@@ -230,7 +232,8 @@ def side_by_side(dim: int, quick: bool, cfg: SPHConfig, ratio: float = 10.0) -> 
     phases = [Phase("heavy", 1000.0), Phase("light", 1000.0 / ratio)]
     split = lambda pts: np.where(pts[:, 0] < W / 2, 0, 1)  # noqa: E731
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), split)], phases,
-                     wall_height=2 * H + 0.2, name="side_by_side")
+                     wall_height=2 * H + 0.2, name="side_by_side",
+                     closed=True)
     sim = Simulator(sy, cfg)
     v_start = phase_volumes(sim)
     T = 3.0 if quick else 5.0
@@ -262,7 +265,8 @@ def rayleigh_taylor(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
         pts[:, 1] > H / 2 + amp * np.cos(2 * np.pi * pts[:, 0] / W), 0, 1)
     phases = [Phase("heavy", 2000.0), Phase("light", 1000.0)]
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), heavy_above)], phases,
-                     wall_height=2 * H + 0.2, name="rayleigh_taylor")
+                     wall_height=2 * H + 0.2, name="rayleigh_taylor",
+                     closed=True)
     sim = Simulator(sy, cfg)
     T = 4.0 if quick else 6.0
     stats = run(sim, T)
@@ -288,7 +292,8 @@ def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     layer = lambda pts: np.clip((pts[:, 1] / (H / 4)).astype(int), 0, 3)  # noqa: E731
     # phase 0 (700) at the bottom ... phase 3 (3000) on top: the reverse of equilibrium
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), layer)], phases,
-                     wall_height=2 * H + 0.2, name="four_phase")
+                     wall_height=2 * H + 0.2, name="four_phase",
+                     closed=True)
     sim = Simulator(sy, cfg)
     T = 10.0 if quick else 15.0
     stats = run(sim, T)
