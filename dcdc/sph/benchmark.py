@@ -78,7 +78,8 @@ def run_ours(system: ParticleSystem, duration: float, cfg: SPHConfig | None = No
     }
 
 
-def run_splishsplash_if_available(system: ParticleSystem, duration: float) -> list[dict] | str:
+def run_splishsplash_if_available(system: ParticleSystem, duration: float,
+                                  timeout: float = 600.0) -> list[dict] | str:
     """The same scene in SPlisHSPlasH (DFSPH and IISPH) through ``dcdc.sph.splishsplash``
     (another module's runner; it runs the library in a child process)."""
     try:
@@ -90,7 +91,7 @@ def run_splishsplash_if_available(system: ParticleSystem, duration: float) -> li
     out = []
     for solver in ("DFSPH", "IISPH"):
         try:
-            res = run_splishsplash(system, duration, solver)
+            res = run_splishsplash(system, duration, solver, timeout=timeout)
         except Exception as e:  # a foreign solver failing is a result, not our crash
             res = {"status": f"failed: {str(e).splitlines()[0] if str(e) else type(e).__name__}"}
         res["solver"] = f"SPlisHSPlasH {solver}"
@@ -122,7 +123,10 @@ def _row(r: dict) -> str:
 @click.option("--solver", type=click.Choice(["dfsph", "wcsph"]), default="dfsph", show_default=True)
 @click.option("--splishsplash/--no-splishsplash", default=True, show_default=True,
               help="also run the scene in SPlisHSPlasH when it is installed")
-def benchmark_command(json_path, particles, duration, ratios, dim, solver, splishsplash):
+@click.option("--splishsplash-timeout", default=600.0, show_default=True,
+              help="wall seconds per SPlisHSPlasH run (its DFSPH at 10:1 ran > 15 min here)")
+def benchmark_command(json_path, particles, duration, ratios, dim, solver, splishsplash,
+                      splishsplash_timeout):
     """Wall seconds per simulated second of the multiphase SPH solver (2:1 and 10:1)."""
     try:
         rs = [float(v) for v in ratios.split(",") if v.strip()]
@@ -153,7 +157,8 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver, splis
         save()
         if not splishsplash:
             continue
-        other = run_splishsplash_if_available(benchmark_system(ratio, particles, int(dim)), duration)
+        other = run_splishsplash_if_available(benchmark_system(ratio, particles, int(dim)), duration,
+                                              splishsplash_timeout)
         if isinstance(other, str):
             click.echo(other)
             continue
