@@ -30,7 +30,7 @@ class SPHConfig:
     xsph: strength ε of the momentum-conserving XSPH velocity filter (damps the odd-even
         particle modes that SPH's centred divergence cannot see; 0 = off).
     wall_viscosity: kinematic viscosity of the fluid-wall friction [m²/s] (0 = free slip).
-    surface_tension: Akinci et al. 2013 cohesion coefficient γ (0 = off).
+    surface_tension: Akinci et al. 2013 cohesion γ [m/s² per same-phase pair] (0 = off).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).

@@ -15,7 +15,7 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, wall_viscosity: floa
                                s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
     if surface_tension > 0:
-        a += cohesion_acceleration(s.x, s.phase, s.rho0, surface_tension, nbh.rs, nbh.idx, s.V0, s.h)
+        a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
     return a
 
 

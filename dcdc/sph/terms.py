@@ -20,7 +20,8 @@ Notation (docs/sph.md gives the derivation). Every fluid particle has the same r
   left a 3-D tank at rest agitated at 3.5 % of sqrt(gH) (measured, docs/sph.md).
 * viscosity: Morris et al. (1997) Laplacian with harmonic-mean dynamic viscosity
       a_i = 2(d+2) V0/ρ0_i Σ_j μ_ij (v_ij·x_ij)/(|x_ij|² + 0.01 h²) G_ij  (+ wall friction)
-* cohesion (optional surface tension): Akinci, Akinci & Teschner (2013) eq. 1, same phase.
+* cohesion (optional surface tension): Akinci, Akinci & Teschner (2013) eq. 1, same phase,
+  spline scaled to a peak of 1 (γ in m/s² per pair).
 
 All kernels run ``numba.prange`` over receivers; no Python loop touches a particle.
 """
@@ -218,10 +219,14 @@ def viscosity_acceleration(x, v, rho0, mu, nu_wall, rs, idx, G, wall_x, rsb, idx
 
 
 @nb.njit(cache=True, parallel=True)
-def cohesion_acceleration(x, phase, rho0, gamma, rs, idx, V0, h):
-    """Akinci et al. (2013) cohesion a_i = -γ Σ_{j ≠ i, same phase} m_j C(|x_ij|) x_ij/|x_ij|."""
+def cohesion_acceleration(x, phase, gamma, rs, idx, h):
+    """Akinci et al. (2013) cohesion between particles of the same phase, with the spline
+    scaled to a peak of 1 so that ``gamma`` is an acceleration [m/s²] per neighbour pair
+    (the paper's γ m_i m_j C carries mass units that differ between 2-D and 3-D):
+        a_i = -γ Σ_{j ≠ i, same phase} C(|x_ij|) / C(h/2) · x_ij / |x_ij|."""
     n, d = x.shape
     out = np.zeros((n, d))
+    cmax = cohesion_kernel(0.5 * h, h)
     for i in nb.prange(n):
         for e in range(rs[i], rs[i + 1]):
             j = idx[e]
@@ -234,7 +239,7 @@ def cohesion_acceleration(x, phase, rho0, gamma, rs, idx, V0, h):
             r = math.sqrt(r2)
             if r < 1e-9 * h:
                 continue
-            f = -gamma * rho0[j] * V0 * cohesion_kernel(r, h) / r
+            f = -gamma * cohesion_kernel(r, h) / cmax / r
             for k in range(d):
                 out[i, k] += f * (x[i, k] - x[j, k])
     return out
