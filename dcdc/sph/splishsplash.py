@@ -131,7 +131,9 @@ def run_splishsplash(system: ParticleSystem, duration: float, solver: str = "IIS
     result["mean_iterations"] = float(its[0]) if its else None
     result["solver"] = solver
     exploded = not np.isfinite(result["max_speed"]) or result["max_speed"] > EXPLODED_SPEED
-    result["status"] = "exploded" if exploded else "ok"
+    when = result.get("exploded_at_s")
+    result["status"] = ("ok" if not exploded else
+                        f"exploded at t = {when:.3f} s" if when is not None else "exploded")
     return result
 
 
@@ -143,7 +145,7 @@ def _child(scene_path: str, out_path: str) -> None:
     base.init(useGui=False, sceneFile=scene_path, outputDir=str(Path(out_path).parent / "out"))
     base.initSimulation()
     sim = sph.Simulation.getCurrent()
-    dts, max_speed = [], [0.0]
+    dts, max_speed, exploded_at = [], [0.0], [None]
 
     def speeds():
         for k in range(sim.numberOfFluidModels()):
@@ -153,9 +155,14 @@ def _child(scene_path: str, out_path: str) -> None:
             yield np.linalg.norm(v, axis=1).max() if n else 0.0
 
     def on_step():
-        dts.append(sph.TimeManager.getCurrent().getTimeStepSize())
+        tm = sph.TimeManager.getCurrent()
+        dts.append(tm.getTimeStepSize())
         if len(dts) % 10 == 0:
             max_speed[0] = max(max_speed[0], *speeds())
+            if exploded_at[0] is None and not max_speed[0] <= EXPLODED_SPEED:
+                # a blown-up run crawls at tiny steps for hours: stop it here
+                exploded_at[0] = tm.getTime()
+                base.setValueFloat(base.STOP_AT, tm.getTime())
 
     base.setTimeStepCB(on_step)
     t0 = time.perf_counter()
@@ -179,7 +186,7 @@ def _child(scene_path: str, out_path: str) -> None:
               "simulated_s": sim_time, "wall_s": wall,
               "wall_s_per_simulated_s": wall / sim_time if sim_time > 0 else None,
               "ms_per_step": 1e3 * wall / max(len(dts), 1),
-              "max_speed": float(max_speed[0]), "phases": phases}
+              "max_speed": float(max_speed[0]), "exploded_at_s": exploded_at[0], "phases": phases}
     with open(out_path, "w") as f:
         json.dump(result, f)
     base.cleanup()
