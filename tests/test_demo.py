@@ -12,11 +12,11 @@ def test_demo_writes_complete_outputs(tmp_path):
     r = subprocess.run([sys.executable, "-m", "dcdc.cli", "demo", "--duration", "0.1",
                         "--out", str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    h5 = tmp_path / "cocktail_2d.h5"
+    h5 = tmp_path / "cocktail_2d_res2.h5"
     assert is_complete(h5)
-    traj = Dataset(tmp_path)["cocktail_2d"]
+    traj = Dataset(tmp_path)["cocktail_2d_res2"]
     assert traj.n_frames == 6 and np.isfinite(traj.position).all()
-    for name in ("cocktail_2d.png", "cocktail_2d.gif", "cocktail_2d_final.ply"):
+    for name in ("cocktail_2d_res2.png", "cocktail_2d_res2.gif", "cocktail_2d_res2_final.ply"):
         assert (tmp_path / name).stat().st_size > 1000
     assert "final order heavy-below" in r.stdout
 
