@@ -114,10 +114,12 @@ def run_splishsplash(system: ParticleSystem, duration: float, solver: str = "IIS
         if os.path.exists(GL_DISPATCH):
             env["LD_PRELOAD"] = (GL_DISPATCH + " " + env.get("LD_PRELOAD", "")).strip()
         out = os.path.join(tmp, "result.json")
-        cmd = [sys.executable, "-m", "dcdc.sph.splishsplash", scene, out]
+        # the child stops itself after ``timeout`` wall seconds and reports how far it got
+        cmd = [sys.executable, "-m", "dcdc.sph.splishsplash", scene, out, str(timeout)]
         t0 = time.perf_counter()
         try:
-            proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
+            proc = subprocess.run(cmd, env=env, capture_output=True, text=True,
+                                  timeout=timeout + 120)
         except subprocess.TimeoutExpired:
             return {"solver": solver, "status": f"timed out after {timeout:.0f} s"}
         wall = time.perf_counter() - t0
@@ -134,10 +136,13 @@ def run_splishsplash(system: ParticleSystem, duration: float, solver: str = "IIS
     when = result.get("exploded_at_s")
     result["status"] = ("ok" if not exploded else
                         f"exploded at t = {when:.3f} s" if when is not None else "exploded")
+    if result.get("budget_stop") and not exploded:
+        result["status"] = (f"stopped by the {timeout:g} s wall budget at t = "
+                            f"{result['simulated_s']:.3f} s (mean step {1e3 * result['mean_dt']:.3f} ms)")
     return result
 
 
-def _child(scene_path: str, out_path: str) -> None:
+def _child(scene_path: str, out_path: str, budget_s: float = float("inf")) -> None:
     """Child-process entry: run the scene, write stats as JSON (see :func:`run_splishsplash`)."""
     import pysplishsplash as sph
 
@@ -145,7 +150,7 @@ def _child(scene_path: str, out_path: str) -> None:
     base.init(useGui=False, sceneFile=scene_path, outputDir=str(Path(out_path).parent / "out"))
     base.initSimulation()
     sim = sph.Simulation.getCurrent()
-    dts, max_speed, exploded_at = [], [0.0], [None]
+    dts, max_speed, exploded_at, budget_stop = [], [0.0], [None], [False]
 
     def speeds():
         for k in range(sim.numberOfFluidModels()):
@@ -163,9 +168,12 @@ def _child(scene_path: str, out_path: str) -> None:
                 # a blown-up run crawls at tiny steps for hours: stop it here
                 exploded_at[0] = tm.getTime()
                 base.setValueFloat(base.STOP_AT, tm.getTime())
+            elif not budget_stop[0] and time.perf_counter() - t0 > budget_s:
+                budget_stop[0] = True
+                base.setValueFloat(base.STOP_AT, tm.getTime())
 
     base.setTimeStepCB(on_step)
-    t0 = time.perf_counter()
+    t0 = time.perf_counter()  # read by on_step
     base.runSimulation()
     wall = time.perf_counter() - t0
     max_speed[0] = max(max_speed[0], *speeds())
@@ -186,11 +194,12 @@ def _child(scene_path: str, out_path: str) -> None:
               "simulated_s": sim_time, "wall_s": wall,
               "wall_s_per_simulated_s": wall / sim_time if sim_time > 0 else None,
               "ms_per_step": 1e3 * wall / max(len(dts), 1),
-              "max_speed": float(max_speed[0]), "exploded_at_s": exploded_at[0], "phases": phases}
+              "max_speed": float(max_speed[0]), "exploded_at_s": exploded_at[0],
+              "budget_stop": budget_stop[0], "phases": phases}
     with open(out_path, "w") as f:
         json.dump(result, f)
     base.cleanup()
 
 
 if __name__ == "__main__":
-    _child(sys.argv[1], sys.argv[2])
+    _child(sys.argv[1], sys.argv[2], float(sys.argv[3]) if len(sys.argv) > 3 else float("inf"))
