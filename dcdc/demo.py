@@ -14,6 +14,10 @@ import click
 import numpy as np
 
 
+DEMO_SCENE = "cocktail"
+DEMO_RESOLUTION = 2.0  # the 2-D cocktail section at scale 1 holds only ~400 particles
+
+
 def stratification(traj, frame: int) -> list[tuple[str, float, float]]:
     """(phase, rest density, median height) per phase at ``frame``, lightest phase first.
 
@@ -36,10 +40,11 @@ def ordered(rows) -> bool:
 
 
 @click.command("demo")
-@click.option("--scene", default="cocktail", show_default=True, help="built-in name or scene file")
+@click.option("--scene", default=DEMO_SCENE, show_default=True, help="built-in name or scene file")
 @click.option("--dim", type=click.Choice(["2", "3"]), default="2", show_default=True)
-@click.option("--resolution", type=float, default=2.0, show_default=True,
-              help="length scale of the scene at fixed particle size")
+@click.option("--resolution", type=float, default=None,
+              help="length scale of the scene at fixed particle size "
+                   f"(default: {DEMO_RESOLUTION:g} for the built-in demo scene, 1 for any other)")
 @click.option("--duration", type=float, default=None, help="seconds (default: the scene's)")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="demo_out", show_default=True)
 def demo_command(scene, dim, resolution, duration, out_dir):
@@ -51,6 +56,8 @@ def demo_command(scene, dim, resolution, duration, out_dir):
     from .export import write_points
     from .render import animate, snapshot_strip
 
+    if resolution is None:
+        resolution = DEMO_RESOLUTION if scene == DEMO_SCENE else 1.0
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration)[0]
