@@ -224,30 +224,41 @@ def dam_break(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     return rows
 
 
+def _closed_tank(dim: int, quick: bool, W: float, H: float, phases: list[Phase], assign,
+                 name: str):
+    """A closed tank of inner size W × H (× 0.2 deep in 3-D, walls 2H + 0.2 tall) filled with
+    one block whose particles ``assign`` maps to phase indices; its Simulator and floor area."""
+    size = _depth_size(dim, W, H, 0.2)
+    sy = tank_system(dim, _radius(dim, quick), size,
+                     [(np.zeros(3), size + [0] * (3 - dim), assign)], phases,
+                     wall_height=2 * H + 0.2, name=name, closed=True)
+    return sy, float(np.prod(np.delete(size, 1)))
+
+
+def _layer_rows(c: str, sy: ParticleSystem, sim: Simulator, area: float, order: list[int],
+                order_label: str, purity_min: float) -> list[Row]:
+    """Rows: phases in ``order`` (bottom to top) by mean height, and layer purity."""
+    ok = phase_order_ok(sy, order)
+    purity = layer_purity(sy, order, 0.0, area, sim.V0)
+    return [Row(c, order_label, float(ok), "1", "= 1", ok),
+            Row(c, "layer purity", purity, "1", f">= {purity_min:g}", purity >= purity_min)]
+
+
 def side_by_side(dim: int, quick: bool, cfg: SPHConfig, ratio: float = 10.0) -> list[Row]:
     """Heavy and light phase (ratio:1) side by side settle into layers, heavy below."""
-    r = _radius(dim, quick)
     W, H = 0.8, 0.4
-    size = _depth_size(dim, W, H, 0.2)
     phases = [Phase("heavy", 1000.0), Phase("light", 1000.0 / ratio)]
     split = lambda pts: np.where(pts[:, 0] < W / 2, 0, 1)  # noqa: E731
-    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), split)], phases,
-                     wall_height=2 * H + 0.2, name="side_by_side",
-                     closed=True)
+    sy, area = _closed_tank(dim, quick, W, H, phases, split, "side_by_side")
     sim = Simulator(sy, cfg)
     v_start = phase_volumes(sim)
     T = 3.0 if quick else 5.0
     stats = run(sim, T)
     v_end = phase_volumes(sim)
-    area = float(np.prod(np.delete(size, 1)))
-    purity = layer_purity(sy, [0, 1], 0.0, area, sim.V0)
     dvol = np.abs(v_end / v_start - 1.0)
     vbound = 2.0 * math.sqrt(2 * G * H)
     c = f"{ratio:g}:1 side by side {dim}D (N={sy.n_fluid})"
-    return [
-        Row(c, "heavy below light", float(phase_order_ok(sy, [0, 1])), "1", "= 1",
-            phase_order_ok(sy, [0, 1])),
-        Row(c, "layer purity", purity, "1", ">= 0.9", purity >= 0.9),
+    return _layer_rows(c, sy, sim, area, [0, 1], "heavy below light", 0.9) + [
         Row(c, "volume change heavy", float(dvol[0]), "0", "< 2 %", bool(dvol[0] < 0.02)),
         Row(c, "volume change light", float(dvol[1]), "0", "< 2 %", bool(dvol[1] < 0.02)),
         Row(c, "max speed [m/s]", stats["max_speed"], f"< {vbound:.2f}", "finite, bounded",
@@ -257,26 +268,16 @@ def side_by_side(dim: int, quick: bool, cfg: SPHConfig, ratio: float = 10.0) -> 
 
 def rayleigh_taylor(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """Heavy (2000) above light (1000) with a cosine-perturbed interface inverts."""
-    r = _radius(dim, quick)
     W, H = 0.6, 0.8
-    size = _depth_size(dim, W, H, 0.2)
     amp = 0.05
     heavy_above = lambda pts: np.where(  # noqa: E731
         pts[:, 1] > H / 2 + amp * np.cos(2 * np.pi * pts[:, 0] / W), 0, 1)
     phases = [Phase("heavy", 2000.0), Phase("light", 1000.0)]
-    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), heavy_above)], phases,
-                     wall_height=2 * H + 0.2, name="rayleigh_taylor",
-                     closed=True)
+    sy, area = _closed_tank(dim, quick, W, H, phases, heavy_above, "rayleigh_taylor")
     sim = Simulator(sy, cfg)
-    T = 4.0 if quick else 6.0
-    stats = run(sim, T)
-    area = float(np.prod(np.delete(size, 1)))
-    purity = layer_purity(sy, [0, 1], 0.0, area, sim.V0)
+    stats = run(sim, 4.0 if quick else 6.0)
     c = f"Rayleigh-Taylor 2:1 {dim}D (N={sy.n_fluid})"
-    return [
-        Row(c, "inverted (heavy below)", float(phase_order_ok(sy, [0, 1])), "1", "= 1",
-            phase_order_ok(sy, [0, 1])),
-        Row(c, "layer purity", purity, "1", ">= 0.8", purity >= 0.8),
+    return _layer_rows(c, sy, sim, area, [0, 1], "inverted (heavy below)", 0.8) + [
         Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
             bool(np.isfinite(stats["max_speed"]))),
     ]
@@ -284,28 +285,18 @@ def rayleigh_taylor(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
 
 def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """Layers 3000/1500/1000/700 stacked in reverse (lightest at the bottom) sort themselves."""
-    r = _radius(dim, quick)
     W, H = 0.4, 1.0
-    size = _depth_size(dim, W, H, 0.2)
     dens = [700.0, 1000.0, 1500.0, 3000.0]
     phases = [Phase(f"rho{int(d)}", d) for d in dens]
     layer = lambda pts: np.clip((pts[:, 1] / (H / 4)).astype(int), 0, 3)  # noqa: E731
     # phase 0 (700) at the bottom ... phase 3 (3000) on top: the reverse of equilibrium
-    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), layer)], phases,
-                     wall_height=2 * H + 0.2, name="four_phase",
-                     closed=True)
+    sy, area = _closed_tank(dim, quick, W, H, phases, layer, "four_phase")
     sim = Simulator(sy, cfg)
-    T = 10.0 if quick else 15.0
-    stats = run(sim, T)
-    area = float(np.prod(np.delete(size, 1)))
+    stats = run(sim, 10.0 if quick else 15.0)
     order = [3, 2, 1, 0]
-    purity = layer_purity(sy, order, 0.0, area, sim.V0)
     ys = [float(sy.x[sy.phase == k, 1].mean()) for k in order]
     c = f"four phases {dim}D (N={sy.n_fluid})"
-    return [
-        Row(c, "order 3000<1500<1000<700 (mean y)", float(phase_order_ok(sy, order)), "1", "= 1",
-            phase_order_ok(sy, order)),
-        Row(c, "layer purity", purity, "1", ">= 0.6", purity >= 0.6),
+    return _layer_rows(c, sy, sim, area, order, "order 3000<1500<1000<700 (mean y)", 0.6) + [
         Row(c, "mean heights [m]", ys[0], " / ".join(f"{v:.2f}" for v in ys), "info", True),
         Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
             bool(np.isfinite(stats["max_speed"]))),
