@@ -12,21 +12,27 @@ from pathlib import Path
 import numpy as np
 
 
-def _side_view(ax, x, phase, colors, wall_x, dim, spacing, lo, hi):
+def side_view(ax, x, colors, wall_x, dim: int, spacing: float, lo, hi, ms: float | None = None,
+              ticks: bool = False) -> None:
+    """Scatter fluid (per-particle ``colors``) and walls (grey) seen along z, x right, y up;
+    in 3-D only the slab within two spacings of the mid-plane of [lo, hi]. The marker size
+    ``ms`` defaults to one particle spacing at the axes' scale."""
     if dim == 3:
         zc = 0.5 * (lo[2] + hi[2])
         keep = np.abs(x[:, 2] - zc) < 2 * spacing
-        x, phase = x[keep], phase[keep]
+        x, colors = x[keep], colors[keep]
         wall_x = wall_x[np.abs(wall_x[:, 2] - zc) < 2 * spacing]
-    span = max(hi[0] - lo[0], hi[1] - lo[1])
-    ms = max(0.3, 9.0 * (spacing / span) * 100) ** 2 / 9
+    if ms is None:
+        span = max(hi[0] - lo[0], hi[1] - lo[1])
+        ms = max(0.3, 9.0 * (spacing / span) * 100) ** 2 / 9
     ax.scatter(wall_x[:, 0], wall_x[:, 1], s=ms, c="0.65", marker="s", linewidths=0)
-    ax.scatter(x[:, 0], x[:, 1], s=ms, c=colors[phase], linewidths=0)
+    ax.scatter(x[:, 0], x[:, 1], s=ms, c=colors, linewidths=0)
     ax.set_aspect("equal")
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
-    ax.set_xticks([])
-    ax.set_yticks([])
+    if not ticks:
+        ax.set_xticks([])
+        ax.set_yticks([])
 
 
 def _frame_bounds(traj):
@@ -53,8 +59,8 @@ def snapshot_strip(traj, path, frames=None, n: int = 4, title: str | None = None
     birth, times = traj.birth, traj.time
     for ax, f in zip(axes, frames):
         active = birth <= times[f] + 1e-9
-        _side_view(ax, traj.position[f][active], traj.phase[active], colors, traj.wall_x,
-                   traj.dim, 2 * traj.radius, lo, hi)
+        side_view(ax, traj.position[f][active], colors[traj.phase[active]], traj.wall_x,
+                  traj.dim, 2 * traj.radius, lo, hi)
         ax.set_title(f"t = {times[f]:.2f} s", fontsize=9)
     labels = [f"{p.name} ({p.density:g})" for p in traj.phases]
     handles = [plt.Line2D([], [], marker="o", ls="", color=c) for c in colors]
@@ -82,8 +88,8 @@ def animate(traj, path, every: int = 2, fps: int = 25) -> Path:
     for f in range(0, traj.n_frames, every):
         fig, ax = plt.subplots(figsize=(4, 4 * aspect))
         active = traj.birth <= traj.time[f] + 1e-9
-        _side_view(ax, traj.position[f][active], traj.phase[active], colors, traj.wall_x,
-                   traj.dim, 2 * traj.radius, lo, hi)
+        side_view(ax, traj.position[f][active], colors[traj.phase[active]], traj.wall_x,
+                  traj.dim, 2 * traj.radius, lo, hi)
         ax.set_title(f"{traj.name}  t = {traj.time[f]:.2f} s", fontsize=8)
         fig.canvas.draw()
         images.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())

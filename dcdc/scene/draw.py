@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ..particles import ParticleSystem
+from ..render import side_view
 
 
 def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=None) -> Path:
@@ -31,11 +32,7 @@ def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=
     ms = max(0.5, min(30.0, 2.5e4 / max(len(x) + len(w), 1)))
     if system.dim == 2:
         fig, ax = plt.subplots(figsize=(7, 7 * (hi[1] - lo[1]) / max(hi[0] - lo[0], 1e-9) * 0.9 + 0.8))
-        ax.scatter(w[:, 0], w[:, 1], s=ms, c="0.6", marker="s", linewidths=0)
-        ax.scatter(x[:, 0], x[:, 1], s=ms, c=colors, linewidths=0)
-        ax.set_aspect("equal")
-        ax.set_xlim(lo[0] - 0.1, hi[0] + 0.1)
-        ax.set_ylim(lo[1] - 0.1, hi[1] + 0.1)
+        side_view(ax, x, colors, w, 2, system.spacing, lo - 0.1, hi + 0.1, ms=ms, ticks=True)
         ax.set_title(f"{title} (2-D): {counts}", fontsize=9)
     else:
         fig = plt.figure(figsize=(13, 6))
@@ -56,12 +53,7 @@ def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=
         ax.set_title(f"{title} (3-D): {counts}", fontsize=9)
         ax2 = fig.add_subplot(1, 2, 2)
         slab = 2 * system.spacing
-        ws = w[np.abs(w[:, 2] - zc) < slab]
-        xs = np.abs(x[:, 2] - zc) < slab
-        ax2.scatter(ws[:, 0], ws[:, 1], s=4, c="0.6", marker="s", linewidths=0)
-        ax2.scatter(x[xs, 0], x[xs, 1], s=6, c=colors[xs], linewidths=0)
-        ax2.set_aspect("equal")
-        ax2.set_xlim(lo[0] - 0.1, hi[0] + 0.1); ax2.set_ylim(lo[1] - 0.1, hi[1] + 0.1)
+        side_view(ax2, x, colors, w, 3, system.spacing, lo - 0.1, hi + 0.1, ms=5, ticks=True)
         ax2.set_title(f"side view, slab |z - {zc:.2f}| < {slab:.2f}", fontsize=9)
     for p, col in zip(system.phases, [p.color for p in system.phases]):
         plt.scatter([], [], c=[col], label=f"{p.name} ({p.density:g} kg/m³)")
