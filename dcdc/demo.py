@@ -13,6 +13,8 @@ from pathlib import Path
 import click
 import numpy as np
 
+from .errors import SimulationDiverged
+
 
 DEMO_SCENE = "cocktail"
 DEMO_RESOLUTION = 2.0  # the 2-D cocktail section at scale 1 holds only ~400 particles
@@ -52,9 +54,10 @@ def demo_command(scene, dim, resolution, duration, out_dir):
     from tqdm import tqdm
 
     from .data.dataset import Dataset
-    from .data.generate import run_job, scene_jobs, _code_version
+    from .data.generate import code_version, run_job, scene_jobs
     from .export import write_points
     from .render import animate, snapshot_strip
+    from .scene import parse
 
     if resolution is None:
         resolution = DEMO_RESOLUTION if scene == DEMO_SCENE else 1.0
@@ -63,14 +66,12 @@ def demo_command(scene, dim, resolution, duration, out_dir):
     job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration)[0]
     final = out / f"{job.name}.h5"
     final.unlink(missing_ok=True)
-    from .scene import parse
     sc = parse(job.text(), job.source)
     n_frames = int(round((duration or sc.duration) / sc.frame_dt))
     click.echo(f"simulating {job.name} ({n_frames} frames of {sc.frame_dt} s) with the SPH solver")
     with tqdm(total=n_frames, unit="frame") as bar:
-        rec = run_job(job, out, progress=bar.update, code_version=_code_version())
+        rec = run_job(job, out, progress=bar.update, code_version=code_version())
     if rec["status"] != "ok":
-        from .errors import SimulationDiverged
         raise SimulationDiverged(f"{job.name}: {rec.get('error', 'failed')}")
     traj = Dataset(out)[job.name]
     strip = snapshot_strip(traj, out / f"{job.name}.png", title=f"{job.name}: dcdc SPH")

@@ -106,7 +106,7 @@ def make_simulator(kind: str, system, solver_settings: dict):
 
 
 # ------------------------------------------------------------------ job list
-def _code_version() -> tuple[str, str]:
+def code_version() -> tuple[str, str]:
     from importlib.metadata import PackageNotFoundError, version
     try:
         v = version("dcdc")
@@ -282,7 +282,7 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
             skipped.append(j.name)
         else:
             todo.append(j)
-    version = _code_version()
+    version = code_version()
 
     def frames(j):
         if frames_of:
