@@ -277,7 +277,7 @@ def rayleigh_taylor(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     phases = [Phase("heavy", 2000.0), Phase("light", 1000.0)]
     sy, area = _closed_tank(dim, quick, W, H, phases, heavy_above, "rayleigh_taylor")
     sim = Simulator(sy, cfg)
-    stats = run(sim, 4.0 if quick else 6.0)
+    stats = run(sim, 4.0 if quick else 8.0)
     c = f"Rayleigh-Taylor 2:1 {dim}D (N={sy.n_fluid})"
     return _layer_rows(c, sy, sim, area, [0, 1], "inverted (heavy below)", 0.8) + [
         Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
