@@ -201,3 +201,18 @@ def test_cli_list_show_random(tmp_path):
     r = cli("scene", "show", str(bad))
     assert r.returncode == 2 and r.stderr.startswith("error: bad.toml: phases.water.density must be > 0")
     assert cli("scene", "show", "no_such_scene").returncode == 2
+
+
+def test_open_mesh_is_rejected(tmp_path):
+    """A surface with a missing face encloses nothing: one-line error, not walls with holes."""
+    import trimesh
+    m = trimesh.creation.box(extents=[0.2, 0.2, 0.2])
+    m.update_faces(m.face_normals[:, :2].min(1) > -0.5)  # drop the -x and -y sides: too large to patch
+    m.remove_unreferenced_vertices()
+    m.export(tmp_path / "open.obj")
+    text = MINIMAL.replace('[[fluid]]\nphase = "water"', '[walls.m]\nshape = "mesh"\nfile = "open.obj"\n'
+                           'translate = [0.25, 0.8, 0.0]\n\n[[fluid]]\nphase = "water"')
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    with pytest.raises(DcdcError, match=r"open.obj is not a closed surface"):
+        load(p).realize()

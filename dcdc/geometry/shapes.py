@@ -223,6 +223,14 @@ def load_mesh(path, scale=1.0, translate=None):
     if not len(getattr(mesh, "faces", [])):
         raise DcdcError(f"mesh {path} has no triangles")
     mesh = mesh.copy()
+    if not mesh.is_watertight:
+        # walls are sampled inside the solid the mesh encloses (a shell of several layers,
+        # mesh_solid / mesh_section); an open surface encloses nothing and would give walls
+        # with holes or none. Small holes are closed; anything else is the user's to fix.
+        trimesh.repair.fill_holes(mesh)
+        if not mesh.is_watertight:
+            raise DcdcError(f"mesh {path} is not a closed surface (it has open edges); "
+                            "dcdc needs a closed mesh that encloses the solid")
     mesh.apply_scale(scale)
     if translate is not None:
         mesh.apply_translation(np.asarray(translate, dtype=np.float64))
