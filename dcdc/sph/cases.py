@@ -148,10 +148,14 @@ def run(sim: Simulator, duration: float, every: Callable | None = None) -> dict:
 
 # ---------------------------------------------------------------------------- cases
 def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
-    """Tank at rest: pressure gradient against ρ g, ψ error, residual speed after settling."""
-    r = {(2, True): 0.0125, (2, False): 0.00625, (3, True): 0.025, (3, False): 0.0125}[dim, quick]
+    """Tank at rest: pressure gradient against ρ g, ψ error, residual speed after settling.
+
+    r = 1.25 cm (2-D full: 6.25 mm), 40 particles deep. At r = 2.5 cm only 4 rows lie
+    outside the kernel support of floor and surface, and the fitted slope of a 3-D tank
+    scattered between 0.93 and 1.05 ρ0 g with the tank's depth (measured)."""
+    r = 0.00625 if (dim == 2 and not quick) else 0.0125
     W, H = 0.5, 0.5
-    size = _depth_size(dim, W, H, 0.25 if quick else 0.2)
+    size = _depth_size(dim, W, H, 0.15 if quick else 0.2)
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), _const(0))],
                      [Phase("water", 1000.0)], wall_height=H + 0.2, name="hydrostatic")
     sim = Simulator(sy, cfg)
