@@ -132,6 +132,36 @@ def phase_volumes(sim: Simulator) -> np.ndarray:
     return np.bincount(sim.system.phase, weights=vol, minlength=len(sim.system.phases))
 
 
+class EnergyBudget:
+    """Energy check of a closed tank with static walls: the kinetic energy can never exceed
+    the potential energy released since the start (pressure and viscosity only exchange or
+    dissipate it). Call after each frame; :meth:`excess` is the worst KE - ΔPE over the
+    frames, relative to the ΔPE released by the end (< 0: no energy was created)."""
+
+    def __init__(self, sim: Simulator):
+        self.mass = sim.system.rest_density * sim.V0
+        self.g = -np.asarray(sim.system.gravity, dtype=np.float64)
+        self.pe0 = self._pe(sim)
+        self.worst = -np.inf
+        self.released = 0.0
+
+    def _pe(self, sim: Simulator) -> float:
+        return float(self.mass @ (sim.system.x @ self.g))
+
+    def __call__(self, sim: Simulator, frame: int) -> None:
+        ke = 0.5 * float(self.mass @ (sim.system.v ** 2).sum(1))
+        self.released = self.pe0 - self._pe(sim)
+        self.worst = max(self.worst, ke - self.released)
+
+    def excess(self) -> float:
+        return self.worst / max(self.released, 1e-30)
+
+    def row(self, case: str) -> "Row":
+        e = self.excess()
+        return Row(case, "max (KE - released PE) / PE released", e, "<= 0", "< 0.01",
+                   bool(e < 0.01))
+
+
 def run(sim: Simulator, duration: float, every: Callable | None = None) -> dict:
     """Advance ``duration`` in frames; track the largest speed and substep statistics."""
     n = int(round(duration / FRAME))
@@ -259,7 +289,8 @@ def side_by_side(dim: int, quick: bool, cfg: SPHConfig, ratio: float = 10.0) -> 
     sim = Simulator(sy, cfg)
     v_start = phase_volumes(sim)
     T = 3.0 if quick else 5.0
-    stats = run(sim, T)
+    energy = EnergyBudget(sim)
+    stats = run(sim, T, energy)
     v_end = phase_volumes(sim)
     dvol = np.abs(v_end / v_start - 1.0)
     vbound = 2.0 * math.sqrt(2 * G * H)
@@ -269,6 +300,7 @@ def side_by_side(dim: int, quick: bool, cfg: SPHConfig, ratio: float = 10.0) -> 
         Row(c, "volume change light", float(dvol[1]), "0", "< 2 %", bool(dvol[1] < 0.02)),
         Row(c, "max speed [m/s]", stats["max_speed"], f"< {vbound:.2f}", "finite, bounded",
             bool(np.isfinite(stats["max_speed"]) and stats["max_speed"] < vbound)),
+        energy.row(c),
     ]
 
 
@@ -281,11 +313,13 @@ def rayleigh_taylor(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     phases = [Phase("heavy", 2000.0), Phase("light", 1000.0)]
     sy, area = _closed_tank(dim, quick, W, H, phases, heavy_above, "rayleigh_taylor")
     sim = Simulator(sy, cfg)
-    stats = run(sim, 4.0 if quick else 8.0)
+    energy = EnergyBudget(sim)
+    stats = run(sim, 4.0 if quick else 8.0, energy)
     c = f"Rayleigh-Taylor 2:1 {dim}D (N={sy.n_fluid})"
     return _layer_rows(c, sy, sim, area, [0, 1], "inverted (heavy below)", 0.8) + [
         Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
             bool(np.isfinite(stats["max_speed"]))),
+        energy.row(c),
     ]
 
 
@@ -298,7 +332,8 @@ def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     # phase 0 (700) at the bottom ... phase 3 (3000) on top: the reverse of equilibrium
     sy, area = _closed_tank(dim, quick, W, H, phases, layer, "four_phase")
     sim = Simulator(sy, cfg)
-    stats = run(sim, 10.0 if quick else 15.0)
+    energy = EnergyBudget(sim)
+    stats = run(sim, 10.0 if quick else 15.0, energy)
     order = [3, 2, 1, 0]
     ys = [float(sy.x[sy.phase == k, 1].mean()) for k in order]
     c = f"four phases {dim}D (N={sy.n_fluid})"
@@ -306,6 +341,7 @@ def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
         Row(c, "mean heights [m]", ys[0], " / ".join(f"{v:.2f}" for v in ys), "info", True),
         Row(c, "max speed [m/s]", stats["max_speed"], "finite", "finite",
             bool(np.isfinite(stats["max_speed"]))),
+        energy.row(c),
     ]
 
 
