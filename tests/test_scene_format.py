@@ -104,11 +104,17 @@ def test_overlap_inside_wall_and_outside_domain_are_reported():
         parse(out).realize()
 
 
-def test_missing_mesh_file_is_reported(tmp_path):
-    text = MINIMAL.replace('[[fluid]]\nphase = "water"', '[walls.m]\nshape = "mesh"\nfile = "nope.obj"\n\n'
-                           '[[fluid]]\nphase = "water"')
+def scene_with_mesh_wall(tmp_path, wall_fields: str) -> Path:
+    """MINIMAL plus a mesh wall ``walls.m`` with the given TOML fields, written to a file."""
+    text = MINIMAL.replace('[[fluid]]\nphase = "water"', '[walls.m]\nshape = "mesh"\n' + wall_fields
+                           + '\n\n[[fluid]]\nphase = "water"')
     p = tmp_path / "s.toml"
     p.write_text(text)
+    return p
+
+
+def test_missing_mesh_file_is_reported(tmp_path):
+    p = scene_with_mesh_wall(tmp_path, 'file = "nope.obj"')
     with pytest.raises(DcdcError, match=r"walls.m.file: mesh file .*nope.obj not found"):
         load(p).realize()
 
@@ -210,9 +216,6 @@ def test_open_mesh_is_rejected(tmp_path):
     m.update_faces(m.face_normals[:, :2].min(1) > -0.5)  # drop the -x and -y sides: too large to patch
     m.remove_unreferenced_vertices()
     m.export(tmp_path / "open.obj")
-    text = MINIMAL.replace('[[fluid]]\nphase = "water"', '[walls.m]\nshape = "mesh"\nfile = "open.obj"\n'
-                           'translate = [0.25, 0.8, 0.0]\n\n[[fluid]]\nphase = "water"')
-    p = tmp_path / "s.toml"
-    p.write_text(text)
+    p = scene_with_mesh_wall(tmp_path, 'file = "open.obj"\ntranslate = [0.25, 0.8, 0.0]')
     with pytest.raises(DcdcError, match=r"open.obj is not a closed surface"):
         load(p).realize()
