@@ -84,20 +84,29 @@ def _counting_sort(keys, n_cells):
 
 
 @nb.njit(cache=True, parallel=True)
-def _count(q, qkeys, p_sorted, order, start, offsets, r2, exclude_self):
+def _count(q, qkeys, p_sorted, order, start, rows, r2, exclude_self):
+    """Neighbours per query. ``rows`` are the key offsets of the 3^(d-1) rows of cells
+    around a query's cell; the three cells of a row are consecutive keys, so their points
+    are one contiguous range ``start[c - 1]:start[c + 2]`` of the sorted points."""
     n = q.shape[0]
     d = q.shape[1]
     counts = np.zeros(n, dtype=np.int64)
     for i in nb.prange(n):
+        q0 = q[i, 0]
+        q1 = q[i, 1]
+        q2 = q[i, 2] if d == 3 else 0.0
         c = 0
-        for o in offsets:
+        for o in rows:
             cell = qkeys[i] + o
-            for s in range(start[cell], start[cell + 1]):
+            for s in range(start[cell - 1], start[cell + 2]):
                 if exclude_self and order[s] == i:
                     continue
-                dist2 = 0.0
-                for k in range(d):
-                    t = q[i, k] - p_sorted[s, k]
+                t = q0 - p_sorted[s, 0]
+                dist2 = t * t
+                t = q1 - p_sorted[s, 1]
+                dist2 += t * t
+                if d == 3:
+                    t = q2 - p_sorted[s, 2]
                     dist2 += t * t
                 if dist2 <= r2:
                     c += 1
@@ -106,20 +115,27 @@ def _count(q, qkeys, p_sorted, order, start, offsets, r2, exclude_self):
 
 
 @nb.njit(cache=True, parallel=True)
-def _fill(q, qkeys, p_sorted, order, start, offsets, r2, exclude_self, row_splits, index):
+def _fill(q, qkeys, p_sorted, order, start, rows, r2, exclude_self, row_splits, index):
+    """Write the neighbours counted by :func:`_count` (same traversal)."""
     n = q.shape[0]
     d = q.shape[1]
     for i in nb.prange(n):
+        q0 = q[i, 0]
+        q1 = q[i, 1]
+        q2 = q[i, 2] if d == 3 else 0.0
         w = row_splits[i]
-        for o in offsets:
+        for o in rows:
             cell = qkeys[i] + o
-            for s in range(start[cell], start[cell + 1]):
+            for s in range(start[cell - 1], start[cell + 2]):
                 j = order[s]
                 if exclude_self and j == i:
                     continue
-                dist2 = 0.0
-                for k in range(d):
-                    t = q[i, k] - p_sorted[s, k]
+                t = q0 - p_sorted[s, 0]
+                dist2 = t * t
+                t = q1 - p_sorted[s, 1]
+                dist2 += t * t
+                if d == 3:
+                    t = q2 - p_sorted[s, 2]
                     dist2 += t * t
                 if dist2 <= r2:
                     index[w] = j
@@ -159,14 +175,15 @@ def radius_search(queries: np.ndarray, radius: float, points: np.ndarray | None 
     order, start = _counting_sort(pkeys, int(np.prod(shape)))
     p_sorted = p[order]
     d = q.shape[1]
-    grids = np.meshgrid(*([np.arange(-1, 2)] * d), indexing="ij")
-    strides = np.cumprod(np.concatenate([[1], shape[:-1]]))
-    offsets = sum(g.ravel() * s for g, s in zip(grids, strides)).astype(np.int64)
+    # key offsets of the rows of cells (along axis 0) around a cell: 3 in 2-D, 9 in 3-D
+    grids = np.meshgrid(*([np.arange(-1, 2)] * (d - 1)), indexing="ij")
+    strides = np.cumprod(shape[:-1])
+    rows = sum(g.ravel() * s for g, s in zip(grids, strides)).astype(np.int64)
     r2 = float(radius) ** 2
     excl = bool(exclude_self and same)
-    counts = _count(q, qkeys, p_sorted, order, start, offsets, r2, excl)
+    counts = _count(q, qkeys, p_sorted, order, start, rows, r2, excl)
     row_splits = np.zeros(nq + 1, dtype=np.int64)
     np.cumsum(counts, out=row_splits[1:])
     index = np.empty(row_splits[-1], dtype=np.int32)
-    _fill(q, qkeys, p_sorted, order, start, offsets, r2, excl, row_splits, index)
+    _fill(q, qkeys, p_sorted, order, start, rows, r2, excl, row_splits, index)
     return Neighbors(row_splits, index)
