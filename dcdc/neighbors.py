@@ -53,6 +53,9 @@ def _grid(lo: np.ndarray, hi: np.ndarray, radius: float):
 
 @nb.njit(cache=True, parallel=True)
 def _cell_keys(x, lo, cell, shape):
+    """Flat cell index per point. Cell coordinates are clamped to [1, shape - 2]: the points
+    a grid was built from always fall inside; a query outside the grid's box lands in a
+    border cell, whose neighbourhood still holds every point within one cell of it."""
     n, d = x.shape
     keys = np.empty(n, dtype=np.int64)
     for i in nb.prange(n):
@@ -60,6 +63,7 @@ def _cell_keys(x, lo, cell, shape):
         stride = 1
         for k in range(d):
             c = int(np.floor((x[i, k] - lo[k]) / cell)) + 1
+            c = min(max(c, 1), shape[k] - 2)
             key += c * stride
             stride *= shape[k]
         keys[i] = key
@@ -142,6 +146,62 @@ def _fill(q, qkeys, p_sorted, order, start, rows, r2, exclude_self, row_splits, 
                     w += 1
 
 
+class CellGrid:
+    """Points binned into a cell list of edge >= ``radius``, searchable by any queries.
+
+    Build it once for points that do not move (the walls of an SPH scene) and call
+    :meth:`search` every step: only the queries are binned then. Queries outside the box of
+    the points are fine (their cells are clamped to the border, see :func:`_cell_keys`)."""
+
+    def __init__(self, points: np.ndarray, radius: float, dtype=None):
+        p = np.ascontiguousarray(points, dtype=dtype)
+        if p.dtype not in (np.float32, np.float64):
+            p = p.astype(np.float64)
+        if p.ndim != 2 or p.shape[1] not in (2, 3):
+            raise DcdcError(f"neighbour search needs [N, 2|3] points, got {p.shape}")
+        if not radius > 0:
+            raise DcdcError(f"search radius must be > 0 (got {radius})")
+        if not np.isfinite(p).all():
+            raise DcdcError("neighbour search got NaN/inf positions")
+        self.points = p
+        self.radius = float(radius)
+        self.dim = p.shape[1]
+        if len(p) == 0:
+            return
+        self.lo = p.min(0).astype(np.float64)
+        self.cell, self.shape = _grid(self.lo, p.max(0).astype(np.float64), radius)
+        self.keys = _cell_keys(p, self.lo, self.cell, self.shape)
+        self.order, self.start = _counting_sort(self.keys, int(np.prod(self.shape)))
+        self.sorted = p[self.order]
+        # key offsets of the rows of cells (along axis 0) around a cell: 3 in 2-D, 9 in 3-D
+        grids = np.meshgrid(*([np.arange(-1, 2)] * (self.dim - 1)), indexing="ij")
+        strides = np.cumprod(self.shape[:-1])
+        self.rows = sum(g.ravel() * s for g, s in zip(grids, strides)).astype(np.int64)
+
+    def search(self, queries: np.ndarray | None = None, exclude_self: bool = False) -> Neighbors:
+        """Points within ``radius`` (inclusive) of each query; ``queries=None`` searches the
+        points themselves (then ``exclude_self`` may leave out the pairs (i, i))."""
+        same = queries is None
+        q = self.points if same else np.ascontiguousarray(queries, dtype=self.points.dtype)
+        if q.ndim != 2 or q.shape[1] != self.dim:
+            raise DcdcError(f"neighbour search needs [N, {self.dim}] queries, got {q.shape}")
+        nq = len(q)
+        if nq == 0 or len(self.points) == 0:
+            return Neighbors(np.zeros(nq + 1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+        if not same and not np.isfinite(q).all():
+            raise DcdcError("neighbour search got NaN/inf positions")
+        qkeys = self.keys if same else _cell_keys(q, self.lo, self.cell, self.shape)
+        r2 = self.radius ** 2
+        excl = bool(exclude_self and same)
+        args = (q, qkeys, self.sorted, self.order, self.start, self.rows, r2, excl)
+        counts = _count(*args)
+        row_splits = np.zeros(nq + 1, dtype=np.int64)
+        np.cumsum(counts, out=row_splits[1:])
+        index = np.empty(row_splits[-1], dtype=np.int32)
+        _fill(*args, row_splits, index)
+        return Neighbors(row_splits, index)
+
+
 def radius_search(queries: np.ndarray, radius: float, points: np.ndarray | None = None,
                   exclude_self: bool = False) -> Neighbors:
     """All ``points`` within distance ``radius`` (inclusive) of each query.
@@ -155,35 +215,9 @@ def radius_search(queries: np.ndarray, radius: float, points: np.ndarray | None 
     q = np.ascontiguousarray(queries)
     if q.dtype not in (np.float32, np.float64):
         q = q.astype(np.float64)
-    same = points is None
-    p = q if same else np.ascontiguousarray(points, dtype=q.dtype)
+    if points is None:
+        return CellGrid(q, radius).search(None, exclude_self)
+    p = np.asarray(points)
     if q.ndim != 2 or p.ndim != 2 or q.shape[1] != p.shape[1] or q.shape[1] not in (2, 3):
         raise DcdcError(f"radius_search needs [N, 2|3] arrays, got {q.shape} and {p.shape}")
-    if not radius > 0:
-        raise DcdcError(f"search radius must be > 0 (got {radius})")
-    nq = len(q)
-    if nq == 0 or len(p) == 0:
-        return Neighbors(np.zeros(nq + 1, dtype=np.int64), np.zeros(0, dtype=np.int32))
-    if not (np.isfinite(q).all() and np.isfinite(p).all()):
-        raise DcdcError("neighbour search got NaN/inf positions")
-    both = p if same else np.concatenate([p, q])
-    lo = both.min(0).astype(np.float64)
-    hi = both.max(0).astype(np.float64)
-    cell, shape = _grid(lo, hi, radius)
-    pkeys = _cell_keys(p, lo, cell, shape)
-    qkeys = pkeys if same else _cell_keys(q, lo, cell, shape)
-    order, start = _counting_sort(pkeys, int(np.prod(shape)))
-    p_sorted = p[order]
-    d = q.shape[1]
-    # key offsets of the rows of cells (along axis 0) around a cell: 3 in 2-D, 9 in 3-D
-    grids = np.meshgrid(*([np.arange(-1, 2)] * (d - 1)), indexing="ij")
-    strides = np.cumprod(shape[:-1])
-    rows = sum(g.ravel() * s for g, s in zip(grids, strides)).astype(np.int64)
-    r2 = float(radius) ** 2
-    excl = bool(exclude_self and same)
-    counts = _count(q, qkeys, p_sorted, order, start, rows, r2, excl)
-    row_splits = np.zeros(nq + 1, dtype=np.int64)
-    np.cumsum(counts, out=row_splits[1:])
-    index = np.empty(row_splits[-1], dtype=np.int32)
-    _fill(q, qkeys, p_sorted, order, start, rows, r2, excl, row_splits, index)
-    return Neighbors(row_splits, index)
+    return CellGrid(p, radius, dtype=q.dtype).search(q)

@@ -53,3 +53,22 @@ def test_bad_input():
         radius_search(np.zeros((3, 4)), 0.1)
     with pytest.raises(DcdcError):
         radius_search(np.zeros((3, 3)), -1.0)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cell_grid_built_once_serves_moving_queries(dim):
+    """A grid of static points (the SPH walls) searched by queries that move, inside and far
+    outside its box, gives what a fresh search gives."""
+    from dcdc.neighbors import CellGrid
+    rng = np.random.default_rng(1)
+    walls = rng.uniform(0, 1, (800, dim))
+    grid = CellGrid(walls, 0.15)
+    q = rng.uniform(-0.3, 1.3, (400, dim))
+    for step in range(3):
+        q = q + rng.normal(0, 0.2, q.shape)
+        q[0] = 50.0  # far outside: clamped to a border cell, finds nothing
+        got = _pairs(grid.search(q))
+        assert got == _pairs(radius_search(q, 0.15, points=walls))
+        tree = cKDTree(walls)
+        assert got == {(i, j) for i, js in enumerate(tree.query_ball_point(q, 0.15)) for j in js}
+    assert CellGrid(np.zeros((0, dim)), 0.1).search(q).n_edges == 0

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..neighbors import radius_search
+from ..neighbors import CellGrid, radius_search
 from .terms import compression, edge_kernels, neighbour_counts
 
 
@@ -30,12 +30,18 @@ class Neighbourhood:
         return self.rsb, self.idxb, self.Gb
 
 
-def build(x: np.ndarray, wall_x: np.ndarray, Vb: np.ndarray, h: float, V0: float) -> Neighbourhood:
-    """Search neighbours within ``h`` and evaluate W, ∇W and ψ at positions ``x``."""
+def build(x: np.ndarray, walls: np.ndarray | CellGrid, Vb: np.ndarray, h: float,
+          V0: float) -> Neighbourhood:
+    """Search neighbours within ``h`` and evaluate W, ∇W and ψ at positions ``x``.
+
+    ``walls``: the wall particles, or (faster, as the Simulator does) a
+    :class:`~dcdc.neighbors.CellGrid` of them built once with radius ``h``."""
+    if not isinstance(walls, CellGrid):
+        walls = CellGrid(walls, h)
     ff = radius_search(x, h)
-    fw = radius_search(x, h, wall_x)
+    fw = walls.search(x)
     W, G = edge_kernels(x, x, ff.row_splits, ff.index, h)
-    Wb, Gb = edge_kernels(x, wall_x, fw.row_splits, fw.index, h)
+    Wb, Gb = edge_kernels(x, walls.points, fw.row_splits, fw.index, h)
     psi = compression(ff.row_splits, W, fw.row_splits, fw.index, Wb, Vb, V0)
     counts = neighbour_counts(ff.row_splits, fw.row_splits)
     return Neighbourhood(ff.row_splits, ff.index, W, G, fw.row_splits, fw.index, Wb, Gb, psi, counts)

@@ -26,6 +26,7 @@ import numba as nb
 import numpy as np
 
 from ..errors import DcdcError, SimulationDiverged
+from ..neighbors import CellGrid
 from ..particles import ParticleSystem
 from . import dfsph, wcsph
 from .boundary import check_fluid_outside_walls, wall_volumes
@@ -53,6 +54,7 @@ class Simulator:
         self.h = cfg.support * r
         self.V0 = lattice_volume(2.0 * r, self.h, system.dim)
         self.Vb = wall_volumes(system.wall_x, self.h, self.V0)
+        self._walls = CellGrid(system.wall_x, self.h)  # static: binned once
         self._rho0 = system.rest_density
         nu = system.viscosity + cfg.viscosity
         self._mu = self._rho0 * nu
@@ -84,7 +86,7 @@ class Simulator:
             if n_active == 0:
                 self.time = t_end
                 break
-            nbh = build(s.x, s.wall_x, s.Vb, self.h, self.V0)
+            nbh = build(s.x, self._walls, s.Vb, self.h, self.V0)
             dt = self._choose_dt(s, t_end - self.time)
             if cfg.solver == "dfsph":
                 info = dfsph.substep(s, nbh, dt, cfg)
@@ -147,7 +149,7 @@ class Simulator:
         active = self._active()
         s = self._state(active)
         if len(s.x):
-            nbh = build(s.x, s.wall_x, s.Vb, self.h, self.V0)
+            nbh = build(s.x, self._walls, s.Vb, self.h, self.V0)
             out[active if active is not None else slice(None)] = s.rho0 * nbh.psi
         return out
 
