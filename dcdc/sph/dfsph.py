@@ -38,12 +38,16 @@ MAX_TO_MEAN = 10.0
 WALL_MIRROR = 1.0  # β of terms.py: 1 keeps the pressure operator the adjoint of Dψ/Dt
 
 
+def _acceleration(s: State, nbh: Neighbourhood, p: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """The pressure acceleration a(p) (written to ``a``)."""
+    return pressure_acceleration(p, s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb,
+                                 s.Vb, s.V0, a, WALL_MIRROR)
+
+
 def _apply(s: State, nbh: Neighbourhood, p: np.ndarray, a: np.ndarray) -> np.ndarray:
     """(A p)_i = Dψ_i/Dt of the pressure acceleration a(p) (written to ``a``)."""
-    pressure_acceleration(p, s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb,
-                          s.Vb, s.V0, a, WALL_MIRROR)
-    return compression_rate(a, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0,
-                            WALL_MIRROR)
+    return compression_rate(_acceleration(s, nbh, p, a), nbh.rs, nbh.idx, nbh.G, nbh.rsb,
+                            nbh.idxb, nbh.Gb, s.Vb, s.V0, WALL_MIRROR)
 
 
 def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray, coef: float,
@@ -87,7 +91,7 @@ def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray
         Ap = _apply(s, nbh, p, a)
         err = jacobi_update(p, base, Ap, diag, coef, target, mask, cfg.omega)
         it += 1
-    _apply(s, nbh, p, a)
+    _acceleration(s, nbh, p, a)
     return it, err, a
 
 
