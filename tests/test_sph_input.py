@@ -114,3 +114,19 @@ def test_cli_bad_options_are_one_line_errors():
     assert r.stderr.strip().startswith("error:") and "Traceback" not in r.stderr
     r = cli("validate-sph", "--dim", "4")
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_benchmark_sph_small_run_writes_median_of_repeats(tmp_path):
+    out = tmp_path / "b.json"
+    r = cli("benchmark", "sph", "--dim", "2", "--particles", "200", "--duration", "0.04",
+            "--ratios", "10", "--repeat", "3", "--no-splishsplash", "--json", str(out))
+    assert r.returncode == 0, r.stderr
+    import json
+    doc = json.loads(out.read_text())
+    (res,) = doc["results"]
+    samples = res["wall_s_per_simulated_s_samples"]
+    assert len(samples) == 3 and res["wall_s_per_simulated_s"] == sorted(samples)[1]
+    assert res["stable"] and res["fluid_particles"] > 100 and res["ratio"] == "10:1"
+    assert doc["repeat"] == 3 and len(doc["machine"]["load_average_1min"]) == 2
+    r = cli("benchmark", "sph", "--repeat", "0")
+    assert r.returncode == 2 and r.stderr.startswith("error:")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import platform
 import time
 from pathlib import Path
@@ -78,8 +79,28 @@ def run_ours(system: ParticleSystem, duration: float, cfg: SPHConfig | None = No
     }
 
 
+def median_run(run, repeat: int) -> dict:
+    """Call ``run()`` up to ``repeat`` times and return the run with the median wall time,
+    with all samples in ``wall_s_per_simulated_s_samples``. This machine is shared and
+    one run of our 10:1 case measured anywhere from 7.0 to 10.8 s per simulated second;
+    a run that did not finish normally (exploded, timed out) is not repeated."""
+    runs = []
+    for _ in range(max(1, repeat)):
+        res = run()
+        runs.append(res)
+        if res.get("status", "ok") != "ok" or res.get("wall_s_per_simulated_s") is None:
+            break
+    samples = [r["wall_s_per_simulated_s"] for r in runs if r.get("wall_s_per_simulated_s") is not None]
+    if len(samples) < len(runs) or not samples:
+        return runs[-1]
+    order = sorted(range(len(runs)), key=lambda i: samples[i])
+    out = dict(runs[order[len(order) // 2]])
+    out["wall_s_per_simulated_s_samples"] = samples
+    return out
+
+
 def run_splishsplash_if_available(system: ParticleSystem, duration: float,
-                                  timeout: float = 600.0) -> list[dict] | str:
+                                  timeout: float = 600.0, repeat: int = 1) -> list[dict] | str:
     """The same scene in SPlisHSPlasH (DFSPH and IISPH) through ``dcdc.sph.splishsplash``
     (another module's runner; it runs the library in a child process)."""
     try:
@@ -90,10 +111,12 @@ def run_splishsplash_if_available(system: ParticleSystem, duration: float,
         return "SPlisHSPlasH not installed"
     out = []
     for solver in ("DFSPH", "IISPH"):
-        try:
-            res = run_splishsplash(system, duration, solver, timeout=timeout)
-        except Exception as e:  # a foreign solver failing is a result, not our crash
-            res = {"status": f"failed: {str(e).splitlines()[0] if str(e) else type(e).__name__}"}
+        def once():
+            try:
+                return run_splishsplash(system, duration, solver, timeout=timeout)
+            except Exception as e:  # a foreign solver failing is a result, not our crash
+                return {"status": f"failed: {str(e).splitlines()[0] if str(e) else type(e).__name__}"}
+        res = median_run(once, repeat)
         res["solver"] = f"SPlisHSPlasH {solver}"
         out.append(res)
     return out
@@ -125,8 +148,11 @@ def _row(r: dict) -> str:
               help="also run the scene in SPlisHSPlasH when it is installed")
 @click.option("--splishsplash-timeout", default=600.0, show_default=True,
               help="wall seconds per SPlisHSPlasH run (its DFSPH at 10:1 ran > 15 min here)")
+@click.option("--repeat", default=3, show_default=True,
+              help="runs per solver and ratio; the table shows the median (a run that "
+                   "explodes or times out is not repeated)")
 def benchmark_command(json_path, particles, duration, ratios, dim, solver, splishsplash,
-                      splishsplash_timeout):
+                      splishsplash_timeout, repeat):
     """Wall seconds per simulated second of the multiphase SPH solver (2:1 and 10:1)."""
     try:
         rs = [float(v) for v in ratios.split(",") if v.strip()]
@@ -136,13 +162,17 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver, splis
         raise DcdcError("--ratios is empty")
     if not duration > 0:
         raise DcdcError(f"--duration must be > 0 (got {duration})")
+    if repeat < 1:
+        raise DcdcError(f"--repeat must be >= 1 (got {repeat})")
     results = []
+    load_start = os.getloadavg()[0]
 
     def save():  # after every run, so an interrupted benchmark keeps what it measured
         if json_path:
             doc = {"machine": {"cpu": platform.processor() or platform.machine(),
-                               "python": platform.python_version()},
-                   "duration_s": duration, "results": results}
+                               "cores": os.cpu_count(), "python": platform.python_version(),
+                               "load_average_1min": [load_start, os.getloadavg()[0]]},
+                   "duration_s": duration, "repeat": repeat, "results": results}
             Path(json_path).parent.mkdir(parents=True, exist_ok=True)
             Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
 
@@ -150,7 +180,8 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver, splis
                f"{'ms/step':>9} {'dt ms':>9} {'iters':>8}")
     for ratio in rs:
         system = benchmark_system(ratio, particles, int(dim))
-        res = run_ours(system, duration, SPHConfig(solver=solver))
+        res = median_run(lambda: run_ours(system.copy(), duration, SPHConfig(solver=solver)),
+                         repeat)
         res["ratio"] = f"{ratio:g}:1"
         results.append(res)
         click.echo(_row(res))
@@ -158,7 +189,7 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver, splis
         if not splishsplash:
             continue
         other = run_splishsplash_if_available(benchmark_system(ratio, particles, int(dim)), duration,
-                                              splishsplash_timeout)
+                                              splishsplash_timeout, repeat)
         if isinstance(other, str):
             click.echo(other)
             continue
