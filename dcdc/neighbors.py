@@ -87,19 +87,6 @@ def _counting_sort(keys, n_cells):
     return order, start
 
 
-@nb.njit(cache=True, inline="always")
-def _dist2(q0, q1, q2, p, s, d):
-    """Squared distance from (q0, q1[, q2]) to point ``p[s]`` (d = 2 or 3)."""
-    t = q0 - p[s, 0]
-    r2 = t * t
-    t = q1 - p[s, 1]
-    r2 += t * t
-    if d == 3:
-        t = q2 - p[s, 2]
-        r2 += t * t
-    return r2
-
-
 @nb.njit(cache=True, parallel=True)
 def _count(q, qkeys, p_sorted, order, start, rows, r2, exclude_self):
     """Neighbours per query. ``rows`` are the key offsets of the 3^(d-1) rows of cells
@@ -118,7 +105,14 @@ def _count(q, qkeys, p_sorted, order, start, rows, r2, exclude_self):
             for s in range(start[cell - 1], start[cell + 2]):
                 if exclude_self and order[s] == i:
                     continue
-                if _dist2(q0, q1, q2, p_sorted, s, d) <= r2:
+                t = q0 - p_sorted[s, 0]
+                dist2 = t * t
+                t = q1 - p_sorted[s, 1]
+                dist2 += t * t
+                if d == 3:
+                    t = q2 - p_sorted[s, 2]
+                    dist2 += t * t
+                if dist2 <= r2:
                     c += 1
         counts[i] = c
     return counts
@@ -142,7 +136,14 @@ def _fill(q, qkeys, p_sorted, order, start, rows, r2, exclude_self, row_splits, 
                 j = order[s]
                 if exclude_self and j == i:
                     continue
-                if _dist2(q0, q1, q2, p_sorted, s, d) <= r2:
+                t = q0 - p_sorted[s, 0]
+                dist2 = t * t
+                t = q1 - p_sorted[s, 1]
+                dist2 += t * t
+                if d == 3:
+                    t = q2 - p_sorted[s, 2]
+                    dist2 += t * t
+                if dist2 <= r2:
                     index[w] = j
                     w += 1
 
