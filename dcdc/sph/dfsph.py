@@ -40,14 +40,14 @@ WALL_MIRROR = 1.0  # β of terms.py: 1 keeps the pressure operator the adjoint o
 
 def _acceleration(s: State, nbh: Neighbourhood, p: np.ndarray, a: np.ndarray) -> np.ndarray:
     """The pressure acceleration a(p) (written to ``a``)."""
-    return pressure_acceleration(p, s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb,
-                                 s.Vb, s.V0, a, WALL_MIRROR)
+    return pressure_acceleration(p, s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, a,
+                                 WALL_MIRROR)
 
 
 def _apply(s: State, nbh: Neighbourhood, p: np.ndarray, a: np.ndarray) -> np.ndarray:
     """(A p)_i = Dψ_i/Dt of the pressure acceleration a(p) (written to ``a``)."""
-    return compression_rate(_acceleration(s, nbh, p, a), nbh.rs, nbh.idx, nbh.G, nbh.rsb,
-                            nbh.idxb, nbh.Gb, s.Vb, s.V0, WALL_MIRROR)
+    return compression_rate(_acceleration(s, nbh, p, a), nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0,
+                            WALL_MIRROR)
 
 
 def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray, coef: float,
@@ -97,24 +97,21 @@ def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray
 
 def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
     """Advance ``s`` by ``dt`` in place; returns iteration counts and solver errors."""
-    diag = pressure_diagonal(s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0,
-                             WALL_MIRROR)
+    diag = pressure_diagonal(s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
     it_div, err_div = 0, 0.0
     # Particles at a free surface or in spray (sparse neighbourhood, or clearly expanded) are
     # left free (p = 0); inside, compression *and* expansion are corrected, so a fluid that
     # opened a gap recloses it instead of keeping it (negative pressures are clamped after).
     full = nbh.counts >= MIN_NEIGHBOURS[s.dim]
     if cfg.divergence_solve:
-        rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0,
-                                WALL_MIRROR)
+        rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
         mask = full & (nbh.psi >= 1.0 - SURFACE_GAP)
         it_div, err_div, a = pressure_solve(s, nbh, s.p_div, rate, dt, 0.0, mask,
                                             cfg.divergence_tolerance / dt, diag, cfg)
         s.v += dt * a
     s.v += dt * non_pressure_acceleration(s, nbh, cfg.wall_viscosity, cfg.surface_tension)
     smooth_velocity(s, nbh, cfg.xsph)
-    rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0,
-                            WALL_MIRROR)
+    rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
     psi_star = nbh.psi + dt * rate
     mask = full & (psi_star >= 1.0 - SURFACE_GAP)
     it, err, a = pressure_solve(s, nbh, s.p, psi_star, dt * dt, 1.0, mask,

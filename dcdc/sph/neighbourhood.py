@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..neighbors import CellGrid, radius_search
-from .terms import compression, edge_kernels, neighbour_counts
+from .terms import compression, edge_kernels, neighbour_counts, wall_gradient_sum
 
 
 @dataclass
@@ -22,6 +22,7 @@ class Neighbourhood:
     Gb: np.ndarray
     psi: np.ndarray  # ρ_i / ρ0_i
     counts: np.ndarray  # fluid + wall neighbours
+    Sb: np.ndarray  # [n, d] Σ_b V_b ∇W_ib, the walls' part of the pressure operator
 
     def fluid(self):
         return self.rs, self.idx, self.G
@@ -44,4 +45,6 @@ def build(x: np.ndarray, walls: np.ndarray | CellGrid, Vb: np.ndarray, h: float,
     Wb, Gb = edge_kernels(x, walls.points, fw.row_splits, fw.index, h)
     psi = compression(ff.row_splits, W, fw.row_splits, fw.index, Wb, Vb, V0)
     counts = neighbour_counts(ff.row_splits, fw.row_splits)
-    return Neighbourhood(ff.row_splits, ff.index, W, G, fw.row_splits, fw.index, Wb, Gb, psi, counts)
+    Sb = wall_gradient_sum(fw.row_splits, fw.index, Gb, Vb, len(x), x.shape[1])
+    return Neighbourhood(ff.row_splits, ff.index, W, G, fw.row_splits, fw.index, Wb, Gb, psi,
+                         counts, Sb)

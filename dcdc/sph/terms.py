@@ -7,7 +7,7 @@ Notation (docs/sph.md gives the derivation). Every fluid particle has the same r
 * compression (number density, Solenthaler & Pajarola 2008, with Akinci et al. 2012 walls)
       ψ_i = ρ_i / ρ0_i = V0 Σ_j W_ij + Σ_b V_b W_ib
 * its rate of change (continuity equation)
-      Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + Σ_b V_b v_i·G_ib
+      Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + Σ_b V_b v_i·G_ib = ... + v_i·S_b,i
 * volume-symmetric pressure acceleration (β = 1)
       a_i = -(1 / ρ0_i) [ V0 Σ_j (p_i + p_j) G_ij + β p_i Σ_b V_b G_ib ]
   i.e. the force F_i = m_i a_i; the pair force -V0² (p_i + p_j) G_ij is antisymmetric and
@@ -75,9 +75,30 @@ def compression(rs, W, rsb, idxb, Wb, Vb, V0):
 
 
 @nb.njit(cache=True, parallel=True)
-def compression_rate(v, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
-    """Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + β Σ_b V_b v_i·G_ib (static walls; β = 1 is the
-    exact rate, β = 2 the adjoint of the mirrored-pressure wall force).
+def wall_gradient_sum(rsb, idxb, Gb, Vb, n, d):
+    """S_b,i = Σ_b V_b G_ib per fluid particle: the only way the (static) walls enter the
+    pressure operator, so it is summed once per substep instead of in every product."""
+    out = np.zeros((n, d))
+    for i in nb.prange(n):
+        b0 = b1 = b2 = 0.0
+        for e in range(rsb[i], rsb[i + 1]):
+            f = Vb[idxb[e]]
+            b0 += f * Gb[e, 0]
+            b1 += f * Gb[e, 1]
+            if d == 3:
+                b2 += f * Gb[e, 2]
+        out[i, 0] = b0
+        out[i, 1] = b1
+        if d == 3:
+            out[i, 2] = b2
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def compression_rate(v, rs, idx, G, Sb, V0, beta=1.0):
+    """Dψ_i/Dt = V0 Σ_j (v_i - v_j)·G_ij + β v_i·S_b,i with S_b,i = Σ_b V_b G_ib (static
+    walls, :func:`wall_gradient_sum`; β = 1 is the exact rate, β = 2 the adjoint of the
+    mirrored-pressure wall force).
 
     This and :func:`pressure_acceleration` are the pressure solves' matrix-vector product
     (~25 calls per substep), written with scalar accumulators and the third component
@@ -95,19 +116,16 @@ def compression_rate(v, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
             s += (v0 - v[j, 0]) * G[e, 0] + (v1 - v[j, 1]) * G[e, 1]
             if d == 3:
                 s += (v2 - v[j, 2]) * G[e, 2]
-        sb = 0.0
-        for e in range(rsb[i], rsb[i + 1]):
-            t = v0 * Gb[e, 0] + v1 * Gb[e, 1]
-            if d == 3:
-                t += v2 * Gb[e, 2]
-            sb += Vb[idxb[e]] * t
+        sb = v0 * Sb[i, 0] + v1 * Sb[i, 1]
+        if d == 3:
+            sb += v2 * Sb[i, 2]
         out[i] = V0 * s + beta * sb
     return out
 
 
 @nb.njit(cache=True, parallel=True)
-def pressure_acceleration(p, rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, out, beta=1.0):
-    """a_i = -(1/ρ0_i) [V0 Σ_j (p_i + p_j) G_ij + β p_i Σ_b V_b G_ib], written to ``out``."""
+def pressure_acceleration(p, rho0, rs, idx, G, Sb, V0, out, beta=1.0):
+    """a_i = -(1/ρ0_i) [V0 Σ_j (p_i + p_j) G_ij + β p_i S_b,i], written to ``out``."""
     n, d = out.shape
     for i in nb.prange(n):
         pi = p[i]
@@ -118,27 +136,20 @@ def pressure_acceleration(p, rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, out, beta=
             a1 += f * G[e, 1]
             if d == 3:
                 a2 += f * G[e, 2]
-        b0 = b1 = b2 = 0.0
-        for e in range(rsb[i], rsb[i + 1]):
-            f = Vb[idxb[e]]
-            b0 += f * Gb[e, 0]
-            b1 += f * Gb[e, 1]
-            if d == 3:
-                b2 += f * Gb[e, 2]
         c = -1.0 / rho0[i]
         cb = beta * pi
-        out[i, 0] = c * (V0 * a0 + cb * b0)
-        out[i, 1] = c * (V0 * a1 + cb * b1)
+        out[i, 0] = c * (V0 * a0 + cb * Sb[i, 0])
+        out[i, 1] = c * (V0 * a1 + cb * Sb[i, 1])
         if d == 3:
-            out[i, 2] = c * (V0 * a2 + cb * b2)
+            out[i, 2] = c * (V0 * a2 + cb * Sb[i, 2])
     return out
 
 
 @nb.njit(cache=True, parallel=True)
-def pressure_diagonal(rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
+def pressure_diagonal(rho0, rs, idx, G, Sb, V0, beta=1.0):
     """Diagonal A_ii of the map p -> D(a(p)) (compression rate of the pressure acceleration).
 
-    With S_f = V0 Σ_j G_ij, S_b = Σ_b V_b G_ib:
+    With S_f = V0 Σ_j G_ij and S_b = Σ_b V_b G_ib (:func:`wall_gradient_sum`):
         A_ii = -(1/ρ0_i) |S_f + β S_b|² - V0² Σ_j |G_ij|² / ρ0_j   (< 0)
     """
     n = len(rs) - 1
@@ -146,7 +157,6 @@ def pressure_diagonal(rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
     out = np.empty(n)
     for i in nb.prange(n):
         f0 = f1 = f2 = 0.0  # S_f
-        b0 = b1 = b2 = 0.0  # S_b
         lap = 0.0
         for e in range(rs[i], rs[i + 1]):
             f0 += G[e, 0]
@@ -156,16 +166,9 @@ def pressure_diagonal(rho0, rs, idx, G, rsb, idxb, Gb, Vb, V0, beta=1.0):
                 f2 += G[e, 2]
                 g2 += G[e, 2] * G[e, 2]
             lap += g2 / rho0[idx[e]]
-        for e in range(rsb[i], rsb[i + 1]):
-            vb = Vb[idxb[e]]
-            b0 += vb * Gb[e, 0]
-            b1 += vb * Gb[e, 1]
-            if d == 3:
-                b2 += vb * Gb[e, 2]
-        f0 *= V0
-        f1 *= V0
-        f2 *= V0
-        dot = (f0 + beta * b0) ** 2 + (f1 + beta * b1) ** 2 + (f2 + beta * b2) ** 2
+        dot = (V0 * f0 + beta * Sb[i, 0]) ** 2 + (V0 * f1 + beta * Sb[i, 1]) ** 2
+        if d == 3:
+            dot += (V0 * f2 + beta * Sb[i, 2]) ** 2
         out[i] = -dot / rho0[i] - V0 * V0 * lap
     return out
 
