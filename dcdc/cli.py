@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from .errors import DcdcError
+from .errors import DcdcError, Interrupted
 
 # verb -> "module:attribute" of a click command or group
 COMMANDS = {
@@ -64,6 +64,9 @@ def benchmark():
 def main(argv=None):
     try:
         cli.main(args=argv, standalone_mode=False)
+    except Interrupted as e:  # Ctrl-C / SIGTERM: "aborted", 128 + signal (dcdc.data.interrupt)
+        click.echo(str(e), err=True)
+        sys.exit(e.exit_code)
     except DcdcError as e:
         click.echo(f"error: {e}", err=True)
         sys.exit(2)

@@ -18,3 +18,15 @@ def require(condition: bool, message: str) -> None:
     """Raise :class:`DcdcError` with ``message`` unless ``condition`` holds."""
     if not condition:
         raise DcdcError(message)
+
+
+class Interrupted(DcdcError):
+    """The run was stopped by a signal (Ctrl-C = SIGINT, SIGTERM). The CLI prints
+    "aborted" / "terminated" and exits with ``exit_code`` = 128 + the signal number."""
+
+    def __init__(self, signum: int = 2, message: str | None = None):
+        import signal
+        self.signum = int(signum)
+        self.exit_code = 128 + self.signum
+        name = "aborted" if self.signum == signal.SIGINT else "terminated"
+        super().__init__(message or f"{name} (signal {signal.Signals(self.signum).name})")
