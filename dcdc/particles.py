@@ -68,6 +68,9 @@ class ParticleSystem:
     birth: np.ndarray | None = None
     name: str = "scene"
     meta: dict = field(default_factory=dict)
+    # signed distance of the walls (< 0 inside the solid), x [M, d] -> [M], when the scene
+    # defines one: the SPH solver's wall volume map uses the exact solid (dcdc.sph.volume_map)
+    wall_sdf: object = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         d = self.dim
@@ -138,4 +141,4 @@ class ParticleSystem:
         return ParticleSystem(self.dim, self.radius, self.x.copy(), self.v.copy(), self.phase.copy(),
                               list(self.phases), self.wall_x.copy(), self.wall_n.copy(),
                               self.gravity.copy(), (self.domain[0].copy(), self.domain[1].copy()),
-                              self.birth.copy(), self.name, dict(self.meta))
+                              self.birth.copy(), self.name, dict(self.meta), self.wall_sdf)

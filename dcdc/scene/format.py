@@ -628,7 +628,8 @@ class Scene:
             wall_x=wx, wall_n=wn, gravity=np.asarray(s["gravity"], dtype=np.float64),
             domain=(lo - thickness, hi + thickness), birth=np.concatenate(births) if births else None, name=self.name,
             meta={"scene": self.name, "resolution": resolution, "scene_domain": [lo.tolist(), hi.tolist()], "scene_dim": self.dim,
-                  "duration": s["duration"], "frame_dt": s["frame_dt"], "seed": s["seed"]})
+                  "duration": s["duration"], "frame_dt": s["frame_dt"], "seed": s["seed"]},
+            wall_sdf=union if solids else None)
         return system
 
 
