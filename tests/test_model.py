@@ -7,7 +7,7 @@ import torch
 
 from dcdc.errors import DcdcError
 from dcdc.model.cconv import build_geometry, reference_cconv
-from dcdc.model.checkpoint import FORMAT, load_checkpoint, save_checkpoint
+from dcdc.model.checkpoint import FORMAT, digest, load_checkpoint, save_checkpoint
 from dcdc.model.integrator import inertial, rollout, step
 from dcdc.model.layers import CConvLayer, DensityCConvLayer
 from dcdc.model.modulation import DensityEmbedding, DensityPlan
@@ -243,7 +243,8 @@ def test_checkpoint_round_trip(tmp_path):
     assert model.config() == net.config() and model.cfg.normalize
     torch.testing.assert_close(model(x, v, rho, wx, wn), net(x, v, rho, wx, wn))
     raw = torch.load(path, weights_only=True)  # plain, weights-only loadable
-    assert set(raw) >= {"format", "format_version", "config", "state_dict", "code_version", "data"}
+    assert set(raw) >= {"format", "format_version", "config", "state_dict", "code_version", "data",
+                        "digest"}
 
 
 def test_checkpoint_rejections(tmp_path):
@@ -255,9 +256,9 @@ def test_checkpoint_rejections(tmp_path):
         load_checkpoint(path, dim=3)
     ck = torch.load(path, weights_only=True)
 
-    def write(name, obj):
+    def write(name, obj):  # a re-stamped digest: these test what comes after it
         p = tmp_path / name
-        torch.save(obj, p)
+        torch.save({**obj, "digest": digest(obj)}, p)
         return p
 
     with pytest.raises(DcdcError, match="format version 99"):

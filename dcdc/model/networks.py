@@ -32,19 +32,29 @@ from torch import nn
 
 from ..errors import DcdcError
 from ..neighbors import Neighbors, radius_search
+from ..configs import check, check_types
 from ..particles import DEFAULT_RADIUS, RHO_REF
 from .cconv import ConvGeometry, build_geometry
+from .integrator import DEFAULT_DT
 from .layers import AntisymCConvLayer, CConvLayer, DensityCConvLayer
 from .modulation import DensityEmbedding, DensityPlan
 
 
 @dataclass
 class NetConfig:
-    """Hyper-parameters of a correction network (all stored in checkpoints)."""
+    """Hyper-parameters of a correction network (all stored in checkpoints).
 
-    radius: float = 4.5 * DEFAULT_RADIUS  # CConv radius R (DESIGN §2)
+    The network knows the data it is made for (DESIGN §9): the particle radius r and the
+    frame Δt of one neural step. Its convolution radius is derived from r as in
+    DeepLagrangianFluids (Ummenhofer et al. 2020: filter extent 1.5 · 6 r, i.e. R = 4.5 r):
+    R = ``radius_scale`` · ``particle_radius`` (:attr:`radius`).
+    """
+
+    particle_radius: float = DEFAULT_RADIUS  # r of the training data [m]
+    radius_scale: float = 4.5  # CConv radius R in particle radii (DESIGN §2)
+    frame_dt: float = DEFAULT_DT  # Δt of one neural step = the data's frame interval [s]
     kernel_size: int = 4
-    channels: tuple = (32, 64, 64)  # hidden widths; the output layer has d channels
+    channels: tuple[int, ...] = (32, 64, 64)  # hidden widths; the output layer has d channels
     embed_dim: int = 8  # d_e of eq. 4
     embed_hidden: int = 16
     mod_hidden: int = 32
@@ -53,6 +63,38 @@ class NetConfig:
     out_scale: float = 1.0 / 128.0
     density_mode: str = "auto"  # "auto" | "classes" (fast path) | "edges" (per-edge)
     max_classes: int = 16
+    # log(1 + ρ/ρ_ref) as an input channel; None = the architecture's own choice (``cconv``:
+    # yes, the others: no). ``cconv`` without it is DeepLagrangianFluids' network.
+    density_input: bool | None = None
+
+    def __post_init__(self):
+        self.validate()
+
+    @property
+    def radius(self) -> float:
+        """The CConv radius R = radius_scale · particle_radius [m]."""
+        return self.radius_scale * self.particle_radius
+
+    def validate(self) -> "NetConfig":
+        """Types and ranges; one-line DcdcError naming the option otherwise."""
+        check_types(self, "network option ")
+        for name in ("particle_radius", "radius_scale", "frame_dt", "rho_ref", "out_scale"):
+            v = getattr(self, name)
+            check(v > 0, f"network option {name}", "> 0", v)
+        check(self.kernel_size >= 2, "network option kernel_size", "an integer >= 2",
+              self.kernel_size)
+        check(len(self.channels) >= 1 and all(c >= 1 for c in self.channels),
+              "network option channels", "a non-empty list of positive integers",
+              list(self.channels))
+        for name in ("embed_dim", "embed_hidden", "mod_hidden", "max_classes"):
+            v = getattr(self, name)
+            check(v >= 1, f"network option {name}", "an integer >= 1", v)
+        check(self.density_mode in DENSITY_MODES, "network option density_mode",
+              f"one of {', '.join(DENSITY_MODES)}", self.density_mode)
+        return self
+
+
+DENSITY_MODES = ("auto", "classes", "edges")
 
 
 @dataclass
@@ -80,9 +122,10 @@ class CorrectionNet(nn.Module):
         unknown = set(cfg) - known
         if unknown:
             raise DcdcError(f"unknown network option(s) {sorted(unknown)} for {self.name!r}")
-        if "channels" in cfg:
-            cfg["channels"] = tuple(int(c) for c in cfg["channels"])
         self.cfg = NetConfig(**cfg)
+        if self.cfg.density_input is None:
+            self.cfg.density_input = type(self).density_input
+        self.density_input = self.cfg.density_input
         if self.antisymmetric and self.cfg.normalize:
             raise DcdcError("dcdc-antisym needs normalize=false (normalisation breaks antisymmetry)")
         self.dim = dim
@@ -138,31 +181,28 @@ class CorrectionNet(nn.Module):
         self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - t0
 
     # ------------------------------------------------------------------ forward
-    def prepare(self, x, density, wall_x=None) -> StepContext:
-        """Neighbour search + geometry + density plan (no gradients; positions are data)."""
+    def prepare(self, x, density, wall_x=None, scenes: "Scenes | None" = None) -> StepContext:
+        """Neighbour search + geometry + density plan (no gradients; positions are data).
+
+        ``scenes``: several scenes concatenated into one batch (:class:`Scenes`); each is
+        searched on its own, so particles of different scenes never interact."""
         c = self.cfg
-        xn = x.detach().cpu().double().numpy() if isinstance(x, torch.Tensor) else x
+        xn = _numpy(x)
+        wn = _numpy(wall_x) if wall_x is not None else np.zeros((0, self.dim))
         with self._timed("search"):
-            nb_f = radius_search(xn, c.radius, exclude_self=True)
-            nb_w = None
-            if wall_x is not None and len(wall_x):
-                wn = wall_x.detach().cpu().double().numpy() if isinstance(wall_x, torch.Tensor) else wall_x
-                nb_w = radius_search(xn, c.radius, wn)
+            nb_f = _search(xn, c.radius, None, scenes, exclude_self=True)
+            nb_w = _search(xn, c.radius, wn, scenes) if len(wn) else _empty_neighbors(len(xn))
         with self._timed("geometry"):
             fluid = build_geometry(xn, None, c.radius, c.kernel_size, True, c.normalize, neighbors=nb_f)
-            if nb_w is None:
-                wall = build_geometry(xn, np.zeros((0, self.dim)), c.radius, c.kernel_size,
-                                      False, c.normalize,
-                                      neighbors=_empty_neighbors(len(xn)))
-            else:
-                wall = build_geometry(xn, wn, c.radius, c.kernel_size, False, c.normalize,
-                                      neighbors=nb_w)
+            wall = build_geometry(xn, wn if len(wn) else np.zeros((0, self.dim)), c.radius,
+                                  c.kernel_size, False, c.normalize, neighbors=nb_w)
             plan = None
             if self.conditioned or self.antisymmetric:
                 plan = DensityPlan(fluid, density, c.density_mode, c.max_classes)
         return StepContext(fluid, wall, plan)
 
-    def forward(self, x, v, density, wall_x=None, wall_n=None, ctx: StepContext | None = None):
+    def forward(self, x, v, density, wall_x=None, wall_n=None, ctx: StepContext | None = None,
+                scenes: "Scenes | None" = None):
         """Position correction Δx [N, d] for the inertially advanced state (x*, v*).
 
         Args:
@@ -171,9 +211,10 @@ class CorrectionNet(nn.Module):
             density: [N] rest density of each particle's phase [kg/m³].
             wall_x, wall_n: [M, d] wall particle positions and normals (optional).
             ctx: a precomputed :meth:`prepare` result for these positions.
+            scenes: where each scene of a concatenated batch starts (:class:`Scenes`).
         """
         if ctx is None:
-            ctx = self.prepare(x, density, wall_x)
+            ctx = self.prepare(x, density, wall_x, scenes)
         p = next(self.parameters())
         dtype, dev = p.dtype, p.device
         v = torch.as_tensor(v).to(dtype=dtype, device=dev)
@@ -211,6 +252,68 @@ class CorrectionNet(nn.Module):
 
 def _empty_neighbors(n: int) -> Neighbors:
     return Neighbors(np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int32))
+
+
+def _numpy(a) -> np.ndarray:
+    if isinstance(a, torch.Tensor):
+        return a.detach().cpu().double().numpy()
+    return np.asarray(a, dtype=np.float64)
+
+
+@dataclass
+class Scenes:
+    """Several scenes concatenated into one batch: scene b owns fluid rows
+    ``fluid[b]:fluid[b+1]`` and wall rows ``wall[b]:wall[b+1]`` (int offsets, length B + 1)."""
+
+    fluid: np.ndarray
+    wall: np.ndarray
+
+    def __post_init__(self):
+        self.fluid = np.asarray(self.fluid, dtype=np.int64)
+        self.wall = np.asarray(self.wall, dtype=np.int64)
+        if (len(self.fluid) != len(self.wall) or len(self.fluid) < 2 or self.fluid[0] != 0
+                or self.wall[0] != 0 or (np.diff(self.fluid) < 0).any()
+                or (np.diff(self.wall) < 0).any()):
+            raise DcdcError("scene offsets must be two non-decreasing arrays of equal length "
+                            "starting at 0")
+
+    @classmethod
+    def from_counts(cls, fluid_counts, wall_counts) -> "Scenes":
+        return cls(np.concatenate([[0], np.cumsum(fluid_counts)]),
+                   np.concatenate([[0], np.cumsum(wall_counts)]))
+
+    @property
+    def n_scenes(self) -> int:
+        return len(self.fluid) - 1
+
+
+def _search(x: np.ndarray, radius: float, points: np.ndarray | None, scenes: Scenes | None,
+            exclude_self: bool = False) -> Neighbors:
+    """Radius search of ``x`` in ``points`` (None: in ``x`` itself), scene by scene.
+
+    One cell-list search per scene (scenes may overlap in space, and far-apart scenes would
+    blow up a shared grid); the per-scene CSR lists are joined with index offsets."""
+    if scenes is None:
+        return radius_search(x, radius, points, exclude_self=exclude_self)
+    same = points is None
+    offs_p = scenes.fluid if same else scenes.wall
+    if scenes.fluid[-1] != len(x) or offs_p[-1] != (len(x) if same else len(points)):
+        raise DcdcError(f"scene offsets cover {scenes.fluid[-1]} fluid / {scenes.wall[-1]} wall "
+                        f"rows, the batch has {len(x)} / {len(x) if same else len(points)}")
+    splits, index = [np.zeros(1, dtype=np.int64)], []
+    edges = 0
+    for b in range(scenes.n_scenes):
+        q = x[scenes.fluid[b]:scenes.fluid[b + 1]]
+        if same:
+            nb = radius_search(q, radius, exclude_self=exclude_self)
+        else:
+            p = points[offs_p[b]:offs_p[b + 1]]
+            nb = radius_search(q, radius, p) if len(p) else _empty_neighbors(len(q))
+        splits.append(nb.row_splits[1:] + edges)
+        index.append(nb.index + np.int32(offs_p[b]))
+        edges += nb.n_edges
+    return Neighbors(np.concatenate(splits),
+                     np.concatenate(index).astype(np.int32) if index else np.zeros(0, np.int32))
 
 
 class DCDCNet(CorrectionNet):
