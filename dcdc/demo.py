@@ -4,16 +4,16 @@ Runs a built-in multiphase scene (default: the 2-D cocktail at twice its size, ~
 particles, four phases re-stratifying)
 with the reference SPH solver, writes the trajectory (HDF5, dataset layout of
 docs/datasets.md), a picture strip, an animation and the last frame as PLY for
-ParaView/Blender, and prints whether the phases ended in the right order (heavy below).
+ParaView/Blender, and prints whether the phases ended in the right order (heavy below);
+if they did not, it exits non-zero with that reason. The output folder is checked before
+the simulation and written whole at the end (an existing one only with ``--overwrite``).
 """
 from __future__ import annotations
-
-from pathlib import Path
 
 import click
 import numpy as np
 
-from .errors import SimulationDiverged
+from .errors import DcdcError, SimulationDiverged
 
 
 DEMO_SCENE = "cocktail"
@@ -48,42 +48,58 @@ def ordered(rows) -> bool:
               help="length scale of the scene at fixed particle size "
                    f"(default: {DEMO_RESOLUTION:g} for the built-in demo scene, 1 for any other)")
 @click.option("--duration", type=float, default=None, help="seconds (default: the scene's)")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="demo_out", show_default=True)
-def demo_command(scene, dim, resolution, duration, out_dir):
-    """Simulate a built-in multiphase scene with SPH and write its result."""
+@click.option("--out", "out_dir", type=click.Path(), default="demo_out", show_default=True)
+@click.option("--overwrite", is_flag=True, help="Replace an existing non-empty --out directory.")
+@click.option("--max-particles", type=float, default=None,
+              help="Particle budget (default 1e7 or $DCDC_MAX_PARTICLES).")
+def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles):
+    """Simulate a built-in multiphase scene with SPH and write its result.
+
+    Exits with status 2 when the phases do not end in density order (heavy below)."""
     from tqdm import tqdm
 
+    from .data import interrupt
     from .data.dataset import Dataset
     from .data.generate import code_version, run_job, scene_jobs
+    from .data.outputs import atomic_dir, check_dir
     from .export import write_points
     from .render import animate, snapshot_strip
     from .scene import parse
 
+    out = check_dir(out_dir, overwrite=overwrite)  # before any work: never after simulating
     if resolution is None:
         resolution = DEMO_RESOLUTION if scene == DEMO_SCENE else 1.0
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration)[0]
-    final = out / f"{job.name}.h5"
-    final.unlink(missing_ok=True)
+    job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration,
+                     max_particles=max_particles)[0]
+    job.max_particles = max_particles
     sc = parse(job.text(), job.source)
     n_frames = int(round((duration or sc.duration) / sc.frame_dt))
+    out.parent.mkdir(parents=True, exist_ok=True)
     click.echo(f"simulating {job.name} ({n_frames} frames of {sc.frame_dt} s) with the SPH solver")
-    with tqdm(total=n_frames, unit="frame") as bar:
-        rec = run_job(job, out, progress=bar.update, code_version=code_version())
-    if rec["status"] != "ok":
-        raise SimulationDiverged(f"{job.name}: {rec.get('error', 'failed')}")
-    traj = Dataset(out)[job.name]
-    strip = snapshot_strip(traj, out / f"{job.name}.png", title=f"{job.name}: dcdc SPH")
-    anim = animate(traj, out / f"{job.name}.gif")
-    ply = write_points(out / f"{job.name}_final.ply", traj.position[-1],
-                       {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
+    # every output goes into a temporary directory renamed into place at the end: an
+    # interrupted demo leaves the previous run's folder as it was, never a mixture
+    with interrupt.handling(), atomic_dir(out, overwrite=overwrite) as tmp:
+        with tqdm(total=n_frames, unit="frame") as bar:
+            rec = run_job(job, tmp, progress=bar.update, code_version=code_version())
+        if rec["status"] != "ok":
+            raise SimulationDiverged(f"{job.name}: {rec.get('error', 'failed')}")
+        traj = Dataset(tmp)[job.name]
+        names = [f"{job.name}.h5", f"{job.name}.png", f"{job.name}.gif", f"{job.name}_final.ply"]
+        snapshot_strip(traj, tmp / names[1], title=f"{job.name}: dcdc SPH")
+        animate(traj, tmp / names[2])
+        write_points(tmp / names[3], traj.position[-1],
+                     {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
+        rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
     click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
-    rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
     click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
     for (name, rho, y0), (_, _, y1) in zip(rows0, rows1):
         click.echo(f"{name:<12}{rho:>10g}{y0:>16.3f}{y1:>14.3f}")
-    click.echo(f"final order heavy-below: {'yes' if ordered(rows1) else 'NO'}")
-    for p in (final, strip, anim, ply):
-        click.echo(f"wrote {p}")
+    ok = ordered(rows1)
+    click.echo(f"final order heavy-below: {'yes' if ok else 'NO'}")
+    for name in names:
+        click.echo(f"wrote {out / name}")
+    if not ok:
+        heights = ", ".join(f"{n} {y:.3f} m" for n, _, y in rows1)
+        raise DcdcError(f"final phase order check failed: median heights (lightest first) {heights} "
+                        "are not in density order, heavy below")

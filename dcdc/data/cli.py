@@ -5,6 +5,8 @@ import json
 
 import click
 
+from ..errors import DcdcError
+
 
 @click.group("dataset")
 def dataset_group():
@@ -15,13 +17,19 @@ def dataset_group():
 @click.argument("path", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--list", "list_trajs", is_flag=True, help="One line per trajectory.")
-def info_command(path, as_json, list_trajs):
+@click.option("--verify", is_flag=True,
+              help="Read every array and check its checksum (exit 2 if any trajectory is corrupt).")
+def info_command(path, as_json, list_trajs, verify):
     """Summarise the dataset at PATH (a directory or a merged .h5 file)."""
     from .dataset import Dataset
     ds = Dataset(path)
+    check = _verify(ds) if verify else None
     s = ds.summary()
+    if check is not None:
+        s["verify"] = check
     if as_json:
         click.echo(json.dumps(s, indent=1))
+        _report_corrupt(check)
         return
     click.echo(f"dataset     {s['path']}")
     click.echo(f"trajectories {s['trajectories']} finished" +
@@ -41,6 +49,28 @@ def info_command(path, as_json, list_trajs):
             d = sorted(set(t.density.tolist()))
             click.echo(f"  {t.name:<28} {t.dim}-D {t.n_frames:>4} frames {t.n_particles:>6} particles "
                        f"densities {', '.join(f'{v:g}' for v in d)}  {float(t.attrs.get('wall_time_s', 0)):.1f} s")
+    if check is not None:
+        click.echo(f"verify      {len(check['verified'])} checksummed and intact"
+                   + (f", {len(check['unverifiable'])} without checksums (format 1, not verifiable)"
+                      if check["unverifiable"] else "")
+                   + (f", {len(check['corrupt'])} CORRUPT" if check["corrupt"] else ""))
+    _report_corrupt(check)
+
+
+def _verify(ds):
+    from .dataset import verify
+    check = verify(ds)
+    if check["corrupt"]:  # summary() would trip over the damaged ones; describe the rest
+        ds._refs = [r for r in ds._refs if r.group not in check["corrupt"]]
+    return check
+
+
+def _report_corrupt(check) -> None:
+    if check and check["corrupt"]:
+        for name, why in check["corrupt"].items():
+            click.echo(f"  corrupt {name}: {why}")
+        first = next(iter(check["corrupt"].values()))
+        raise DcdcError(f"{len(check['corrupt'])} corrupt trajectory(ies), e.g. {first}")
 
 
 @dataset_group.command("merge")
@@ -50,6 +80,11 @@ def info_command(path, as_json, list_trajs):
 def merge_command(output, inputs, overwrite):
     """Join INPUTS (shard directories or .h5 files) into OUTPUT (a .h5 file, or a directory)."""
     from .dataset import merge
+    from .outputs import check_dir, check_file
+    if output.endswith(".h5"):
+        check_file(output, overwrite)
+    else:
+        check_dir(output, overwrite)
     n = merge(inputs, output, overwrite)
     click.echo(f"merged {n} trajectories into {output}")
 
@@ -58,11 +93,12 @@ def merge_command(output, inputs, overwrite):
 @click.option("--train", type=click.Path(exists=True), required=True)
 @click.option("--valid", type=click.Path(exists=True), default=None)
 @click.option("--test", type=click.Path(exists=True), default=None)
-@click.option("-o", "--out", type=click.Path(file_okay=False), required=True)
-def export_lb_command(train, valid, test, out):
+@click.option("-o", "--out", type=click.Path(), required=True)
+@click.option("--overwrite", is_flag=True, help="Replace an existing non-empty OUT directory.")
+def export_lb_command(train, valid, test, out, overwrite):
     """Write train/valid/test.h5 + metadata.json in the LagrangeBench layout."""
     from .lagrangebench import export_lagrangebench
     splits = {k: v for k, v in (("train", train), ("valid", valid), ("test", test)) if v}
-    meta = export_lagrangebench(splits, out)
+    meta = export_lagrangebench(splits, out, overwrite=overwrite)
     click.echo(f"wrote {', '.join(f'{k}.h5' for k in splits)} + metadata.json to {out} "
                f"({meta['num_trajs_train']} train trajectories, {meta['num_particles_max']} particles max)")

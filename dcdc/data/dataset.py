@@ -22,13 +22,20 @@ and attributes (metadata): ``dim``, ``radius``, ``frame_dt``, ``n_frames``, ``gr
 ``domain_min``/``domain_max``, ``phase_names``/``_densities``/``_viscosities``/``_colors``,
 ``units`` (JSON), ``solver``, ``solver_settings`` (JSON), ``scene``, ``scene_toml`` (the full
 scene file), ``scene_dim``, ``resolution``, ``seed``, ``split``, ``dcdc_version``,
-``git_commit``, ``created``, ``wall_time_s``, ``solver_stats`` (JSON) and ``complete`` = 1,
-written last.
+``git_commit``, ``created``, ``wall_time_s``, ``solver_stats`` (JSON), ``max_density_ratio``,
+``attrs_sha256`` and ``complete`` = 1, written last.
+
+Integrity (format version 2): every non-empty array is stored with HDF5's Fletcher-32
+checksum filter, which HDF5 verifies on every read (a flipped bit makes the read fail
+instead of returning wrong numbers), and ``attrs_sha256`` is a SHA-256 digest of the
+group's other attributes, checked when a trajectory is opened. Files of format version 1
+(no checksums) stay readable; :func:`verify` reports them as not verifiable.
 """
 from __future__ import annotations
 
+import hashlib
 import json
-import os
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,12 +43,12 @@ import numpy as np
 
 from ..errors import DcdcError
 from ..particles import ParticleSystem, Phase
+from .outputs import TMP_MARK, atomic_file
 
 FORMAT = "dcdc-dataset"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: Fletcher-32 on every array, attrs_sha256
 UNITS = {"length": "m", "time": "s", "velocity": "m/s", "density": "kg/m^3",
          "viscosity": "m^2/s (kinematic)", "gravity": "m/s^2"}
-TMP_MARK = ".tmp-"
 
 
 def _h5():
@@ -57,7 +64,57 @@ def _open(path, mode="r"):
         raise DcdcError(f"{path}: no such file") from None
     except OSError as e:
         raise DcdcError(f"{path}: not a readable HDF5 file (truncated or corrupt?): "
-                        f"{str(e).splitlines()[0]}") from None
+                        f"{_first_line(e)}") from None
+
+
+def _first_line(e: BaseException) -> str:
+    return (str(e).strip().splitlines() or [type(e).__name__])[0].strip("'\"")
+
+
+# what h5py raises for a damaged file: OSError (bad data, failed checksum), KeyError and
+# RuntimeError (damaged object headers, heaps, symbol tables), ValueError (bad messages)
+H5_DAMAGE = (OSError, KeyError, RuntimeError, ValueError)
+
+
+@contextmanager
+def _reading(path, what: str = ""):
+    """Open ``path`` for reading; any HDF5 error inside becomes a one-line DcdcError that
+    calls the file corrupt (never a traceback, never a silent "unfinished")."""
+    f = _open(path)
+    try:
+        yield f
+    except DcdcError:
+        raise
+    except H5_DAMAGE as e:
+        raise DcdcError(f"{path}: corrupt HDF5 file{(' (' + what + ')') if what else ''}: "
+                        f"{_first_line(e)}") from None
+    finally:
+        try:
+            f.close()
+        except Exception:  # closing a damaged file can fail too; nothing left to save
+            pass
+
+
+def attrs_digest(attrs) -> str:
+    """SHA-256 of a trajectory group's attributes (all but ``attrs_sha256`` and
+    ``complete``), in a canonical form: sorted keys, values as JSON of their Python value."""
+    h = hashlib.sha256()
+    for k in sorted(attrs):
+        if k in ("attrs_sha256", "complete"):
+            continue
+        v = _attr(attrs[k])
+        v = v.tolist() if isinstance(v, np.ndarray) else v
+        h.update(json.dumps([k, v], sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+def max_density_ratio(density, birth=None, t_end: float | None = None) -> float:
+    """Largest rest-density ratio ρ_max / ρ_min over the particles present (born by
+    ``t_end``); 1 for a single density or no particles."""
+    d = np.asarray(density, dtype=np.float64)
+    if birth is not None and t_end is not None:
+        d = d[np.asarray(birth) <= t_end + 1e-9]
+    return float(d.max() / d.min()) if len(d) and d.min() > 0 else 1.0
 
 
 # ------------------------------------------------------------------ writing
@@ -66,20 +123,11 @@ def write_trajectory(path, name: str, frames_x, frames_v, times, system: Particl
     """Write one trajectory atomically to ``path`` (a ``.h5`` file holding group ``name``):
     write a temporary file in the same directory, flush, fsync, then rename over ``path``."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
-    try:
-        with _h5().File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["format_version"] = FORMAT_VERSION
-            g = f.create_group(name)
-            write_group(g, frames_x, frames_v, times, system, attrs)
-            f.flush()
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_file(path) as tmp, _h5().File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["format_version"] = FORMAT_VERSION
+        g = f.create_group(name)
+        write_group(g, frames_x, frames_v, times, system, attrs)
     return path
 
 
@@ -88,15 +136,23 @@ def write_group(g, frames_x, frames_v, times, system: ParticleSystem, attrs: dic
     v = np.asarray(frames_v, dtype=np.float32)
     T, N, d = x.shape if x.ndim == 3 else (len(x), 0, system.dim)
     chunks = (1, max(N, 1), d) if N else None
-    g.create_dataset("position", data=x, chunks=chunks, compression="lzf" if N else None)
-    g.create_dataset("velocity", data=v, chunks=chunks, compression="lzf" if N else None)
-    g.create_dataset("time", data=np.asarray(times, dtype=np.float64))
-    g.create_dataset("phase", data=system.phase.astype(np.int32))
-    g.create_dataset("density", data=system.rest_density.astype(np.float32))
-    g.create_dataset("birth", data=system.birth.astype(np.float32))
-    g.create_dataset("wall_position", data=system.wall_x.astype(np.float32))
-    g.create_dataset("wall_normal", data=system.wall_n.astype(np.float32))
+
+    def put(key, arr, **kw):
+        # Fletcher-32 on every non-empty array (HDF5 checks it on each read); HDF5 cannot
+        # chunk an empty array, and an empty array has nothing to damage
+        g.create_dataset(key, data=arr, fletcher32=bool(arr.size), **kw)
+    put("position", x, chunks=chunks, compression="lzf" if N else None)
+    put("velocity", v, chunks=chunks, compression="lzf" if N else None)
+    times = np.asarray(times, dtype=np.float64)
+    put("time", times)
+    put("phase", system.phase.astype(np.int32))
+    put("density", system.rest_density.astype(np.float32))
+    put("birth", system.birth.astype(np.float32))
+    put("wall_position", system.wall_x.astype(np.float32))
+    put("wall_normal", system.wall_n.astype(np.float32))
     meta = {
+        "max_density_ratio": max_density_ratio(system.rest_density, system.birth,
+                                               float(times[-1]) if len(times) else 0.0),
         "dim": system.dim, "radius": system.radius, "n_frames": T - 1,
         "gravity": system.gravity, "domain_min": system.domain[0], "domain_max": system.domain[1],
         "phase_names": json.dumps([p.name for p in system.phases]),
@@ -112,6 +168,7 @@ def write_group(g, frames_x, frames_v, times, system: ParticleSystem, attrs: dic
         if val is None:
             val = ""
         g.attrs[k] = val
+    g.attrs["attrs_sha256"] = attrs_digest(g.attrs)  # of the values as stored, read back
     g.attrs["complete"] = 1  # last: a group without it is never read as finished
 
 
@@ -138,7 +195,7 @@ class Trajectory:
     def __init__(self, ref: _Ref):
         self.ref = ref
         self.name = ref.group
-        with _open(ref.file) as f:
+        with _reading(ref.file, ref.group) as f:
             if ref.group not in f:
                 raise DcdcError(f"{ref.file}: no trajectory group {ref.group!r}")
             g = f[ref.group]
@@ -147,6 +204,10 @@ class Trajectory:
                 raise DcdcError(f"{ref.file}: trajectory {ref.group} lacks {', '.join(missing)}")
             self.attrs = {k: _attr(v) for k, v in g.attrs.items()}
             self.shape = g["position"].shape
+            stored = self.attrs.get("attrs_sha256")
+            if stored is not None and stored != attrs_digest(g.attrs):
+                raise DcdcError(f"{ref.file}: corrupt trajectory {ref.group}: its metadata does not "
+                                "match their checksum (attrs_sha256)")
         self._cache = {}
 
     # metadata
@@ -172,6 +233,15 @@ class Trajectory:
         return int(self.shape[1])
 
     @property
+    def max_density_ratio(self) -> float:
+        """ρ_max / ρ_min of the rest densities of the particles present by the last frame
+        (stored as an attribute since format 2; computed for older files)."""
+        if "max_density_ratio" in self.attrs:
+            return float(self.attrs["max_density_ratio"])
+        t = self.time
+        return max_density_ratio(self.density, self.birth, float(t[-1]) if len(t) else 0.0)
+
+    @property
     def gravity(self) -> np.ndarray:
         return np.asarray(self.attrs["gravity"], dtype=np.float64)
 
@@ -189,9 +259,9 @@ class Trajectory:
             try:
                 ds = f[self.ref.group][key]
                 arr = ds[()] if sl is None else ds[sl]
-            except (KeyError, OSError) as e:
+            except H5_DAMAGE as e:  # a failed Fletcher-32 check is an OSError here
                 raise DcdcError(f"{self.ref.file}: cannot read {self.ref.group}/{key} "
-                                f"(truncated or corrupt?): {str(e).splitlines()[0]}") from None
+                                f"(corrupt or truncated): {_first_line(e)}") from None
         if sl is None:
             self._cache[key] = arr
         return arr
@@ -243,26 +313,31 @@ def _attr(v):
 def _scan(path: Path) -> tuple[list[_Ref], list[str]]:
     """Trajectory references in a dataset directory or file, and names of unfinished ones."""
     refs, incomplete = [], []
+
+    def groups(p: Path, f, keys):
+        # a final-named file of format >= 2 is renamed into place only when complete, so a
+        # group without the mark there is damage, not an unfinished run
+        atomic = int(f.attrs.get("format_version", 1)) >= 2
+        for k in keys:
+            if int(f[k].attrs.get("complete", 0)) == 1:
+                refs.append(_Ref(p, k))
+            elif atomic:
+                raise DcdcError(f"{p}: corrupt trajectory {k}: its 'complete' mark is missing "
+                                "in a file that is only ever written whole")
+            else:
+                incomplete.append(k)
     if path.is_dir():
         for p in sorted(path.glob("*.h5")):
             if p.name.startswith("."):
                 continue
-            with _open(p) as f:
-                for k in f.keys():
-                    if int(f[k].attrs.get("complete", 0)) == 1:
-                        refs.append(_Ref(p, k))
-                    else:
-                        incomplete.append(k)
+            with _reading(p) as f:
+                groups(p, f, list(f.keys()))
         incomplete += [p.name for p in path.glob(f".*.h5{TMP_MARK}*")]
     elif path.is_file():
-        with _open(path) as f:
+        with _reading(path) as f:
             if f.attrs.get("format", FORMAT) != FORMAT and "format" in f.attrs:
                 raise DcdcError(f"{path}: not a dcdc dataset (format {f.attrs['format']!r})")
-            for k in sorted(f.keys()):
-                if int(f[k].attrs.get("complete", 0)) == 1:
-                    refs.append(_Ref(path, k))
-                else:
-                    incomplete.append(k)
+            groups(path, f, sorted(f.keys()))
     else:
         raise DcdcError(f"{path}: no such dataset (directory or .h5 file)")
     return refs, incomplete
@@ -323,10 +398,7 @@ class Dataset:
     def summary(self) -> dict:
         trajs = list(self)
         dims = sorted({t.dim for t in trajs})
-        ratios = []
-        for t in trajs:
-            d = np.unique(t.density)
-            ratios.append(float(d.max() / d.min()) if len(d) else 1.0)
+        ratios = [t.max_density_ratio for t in trajs]
         return {
             "path": str(self.path), "trajectories": len(trajs), "incomplete": len(self.incomplete),
             "dims": dims, "frames": int(sum(t.n_frames for t in trajs)),
@@ -345,6 +417,41 @@ class Dataset:
         }
 
 
+def verify_trajectory(traj: Trajectory) -> bool:
+    """Read every array of ``traj`` in full, so HDF5 checks each chunk's Fletcher-32 sum
+    (opening it already checked the metadata digest). True when everything carried a
+    checksum, False for an older file without checksums; DcdcError on damage."""
+    checked = True
+    with _open(traj.ref.file) as f:
+        try:
+            g = f[traj.ref.group]
+            for key in g:
+                ds = g[key]
+                if ds.size:
+                    checked &= bool(ds.fletcher32)
+                    for k in range(0, ds.shape[0], 256):  # a bounded slab at a time
+                        ds[k:k + 256]
+            checked &= "attrs_sha256" in g.attrs
+        except H5_DAMAGE as e:
+            raise DcdcError(f"{traj.ref.file}: corrupt trajectory {traj.name}: "
+                            f"{_first_line(e)}") from None
+    return checked
+
+
+def verify(ds: Dataset) -> dict:
+    """Check every trajectory of ``ds``: {"verified": names, "unverifiable": names written
+    without checksums (format 1), "corrupt": {name: reason}}."""
+    out = {"verified": [], "unverifiable": [], "corrupt": {}}
+    for i, name in enumerate(ds.names):
+        try:
+            ok = verify_trajectory(ds[i])
+        except DcdcError as e:
+            out["corrupt"][name] = str(e)
+            continue
+        out["verified" if ok else "unverifiable"].append(name)
+    return out
+
+
 def merge(inputs, output, overwrite: bool = False) -> int:
     """Join datasets (directories or files, e.g. shards) into ``output``: a single ``.h5``
     file (written to a temporary name, then renamed) or, for any other name, a directory of
@@ -358,34 +465,32 @@ def merge(inputs, output, overwrite: bool = False) -> int:
         raise DcdcError(f"trajectory name(s) in more than one input: {', '.join(dup[:5])}")
     if output.exists() and not overwrite:
         raise DcdcError(f"{output} exists (use --overwrite)")
+    for s in sets:  # copying moves raw chunks without checking them: check them first
+        for t in s:
+            verify_trajectory(t)
     if output.suffix == ".h5":
-        tmp = output.with_name(f".{output.name}{TMP_MARK}{os.getpid()}")
-        try:
-            with _h5().File(tmp, "w") as out:
-                out.attrs["format"] = FORMAT
-                out.attrs["format_version"] = FORMAT_VERSION
-                for s in sets:
-                    for ref in s._refs:
-                        with _open(ref.file) as f:
-                            f.copy(f[ref.group], out, name=ref.group)
-            os.replace(tmp, output)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
+        with atomic_file(output) as tmp, _h5().File(tmp, "w") as out:
+            _copy_groups([ref for s in sets for ref in s._refs], out)
     else:
         output.mkdir(parents=True, exist_ok=True)
         for s in sets:
             for ref in s._refs:
-                dst = output / f"{ref.group}.h5"
-                if s.path.is_dir():
-                    tmp = dst.with_name(f".{dst.name}{TMP_MARK}{os.getpid()}")
-                    shutil.copyfile(ref.file, tmp)
-                    os.replace(tmp, dst)
-                else:
-                    tmp = dst.with_name(f".{dst.name}{TMP_MARK}{os.getpid()}")
-                    with _open(ref.file) as f, _h5().File(tmp, "w") as out:
-                        out.attrs["format"] = FORMAT
-                        out.attrs["format_version"] = FORMAT_VERSION
-                        f.copy(f[ref.group], out, name=ref.group)
-                    os.replace(tmp, dst)
+                with atomic_file(output / f"{ref.group}.h5") as tmp:
+                    if s.path.is_dir():
+                        shutil.copyfile(ref.file, tmp)
+                    else:
+                        with _h5().File(tmp, "w") as out:
+                            _copy_groups([ref], out)
     return len(names)
+
+
+def _copy_groups(refs, out) -> None:
+    """Copy trajectory groups into the open file ``out``. A merged file keeps the oldest
+    format version of its sources (a version-1 group carries no checksums)."""
+    versions = []
+    for ref in refs:
+        with _open(ref.file) as f:
+            versions.append(int(f.attrs.get("format_version", 1)))
+            f.copy(f[ref.group], out, name=ref.group)
+    out.attrs["format"] = FORMAT
+    out.attrs["format_version"] = min(versions, default=FORMAT_VERSION)

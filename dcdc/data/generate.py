@@ -13,18 +13,23 @@ Design (resumable, shardable, never half-written):
   ``--retry-failed``, every diverged one, recorded as ``NAME.failed.json``).
 - ``OUT/dataset.json`` (an index: command, settings, trajectories, timing) is rewritten
   atomically at the end of each run; readers never depend on it.
-- ``--workers W`` runs W scenes at once in spawned processes; each sets its numba thread
-  count to max(1, cores // W) so the machine is not oversubscribed.
+- ``--workers W`` runs W scenes at once in spawned processes (:mod:`.pool`: one job at a
+  time per worker, workers die with their parent); each sets its numba thread count to
+  max(1, cores // W) so the machine is not oversubscribed.
+- Ctrl-C / SIGTERM stop the run between solver steps (:mod:`.interrupt`): finished
+  trajectories stay, in-flight ones are discarded, re-running resumes.
+- Before any work: the output directory is checked (:mod:`.outputs`), every scene's
+  particle and memory budget (:mod:`dcdc.scene.budget`) and the run's duration.
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 import socket
 import subprocess
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -32,7 +37,9 @@ import click
 import numpy as np
 
 from ..errors import DcdcError, SimulationDiverged
-from .dataset import TMP_MARK, is_complete, write_trajectory
+from . import interrupt
+from .dataset import is_complete, write_trajectory
+from .outputs import TMP_MARK, check_dir, write_text
 
 
 @dataclass
@@ -49,6 +56,7 @@ class Job:
     split: str = ""
     solver_overrides: dict | None = None
     random_cfg: dict | None = None
+    max_particles: float | None = None  # budget override (None: dcdc.scene.budget default)
 
     def key(self) -> str:
         """What determines this trajectory: a resumed run must ask for the same thing."""
@@ -129,16 +137,23 @@ def code_version() -> tuple[str, str]:
 
 
 def scene_jobs(scenes, dim: int | None = None, resolution: float = 1.0,
-               duration: float | None = None, split: str = "", solver_overrides=None) -> list[Job]:
-    """Jobs for built-in scene names / scene files."""
+               duration: float | None = None, split: str = "", solver_overrides=None,
+               max_particles: float | None = None) -> list[Job]:
+    """Jobs for built-in scene names / scene files, each checked now (scene, solver table,
+    duration, emitters, particle and memory budget), before any worker starts."""
     from ..scene import builtin_names, builtin_text, get_scene
+    from ..scene.budget import check as check_budget
     jobs = []
     for s in scenes:
-        sc = get_scene(s)  # validates now, before any worker starts
+        sc = get_scene(s)
         sc.check_solver()
         d = dim or sc.dim
         if d > sc.dim:
             raise DcdcError(f"scene {sc.name} is {sc.dim}-D; it has no {d}-D variant")
+        run = duration if duration is not None else sc.duration
+        check_duration(run, sc.frame_dt, "--duration" if duration is not None else f"{sc.name}: duration")
+        check_emitters(sc, run, sc.name, override=duration is not None)
+        check_budget(sc.variant(d, resolution), sc.name, int(round(run / sc.frame_dt)) + 1, max_particles)
         text = builtin_text(s) if str(s) in builtin_names() else Path(s).read_text()
         name = f"{sc.name}_{d}d" + (f"_res{resolution:g}" if resolution != 1 else "")
         jobs.append(Job(name, text, f"builtin:{s}" if sc.builtin else str(Path(s).resolve()),
@@ -167,12 +182,32 @@ def parse_shard(shard: str | None) -> tuple[int, int]:
 
 
 # ------------------------------------------------------------------ one trajectory
-_progress_queue = None
+def check_duration(duration: float | None, frame_dt: float = 0.02, what: str = "--duration") -> None:
+    """A run must cover at least one frame: a finite duration >= frame_dt."""
+    if duration is None:
+        return
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise DcdcError(f"{what} must be a positive number of seconds (got {duration})")
+    if int(round(duration / frame_dt)) < 1:
+        raise DcdcError(f"{what} {duration:g} s is shorter than one frame ({frame_dt:g} s): "
+                        "nothing would be simulated")
 
 
-def _init_worker(threads: int, queue) -> None:
-    global _progress_queue
-    _progress_queue = queue
+def check_emitters(scene, duration: float, source: str, override: bool = False) -> None:
+    """An emitter that starts when the run is already over stores particles that are never
+    born: an error in the scene itself, a warning when ``--duration`` (``override``) cuts
+    a run short on purpose."""
+    for i, e in enumerate(scene.data["emitter"]):
+        if e["start"] >= duration:
+            msg = (f"{source}: emitter[{i}] starts at {e['start']:g} s, when the run "
+                   f"({duration:g} s) is over")
+            if not override:
+                raise DcdcError(f"{msg}: lower its start or lengthen the scene's duration")
+            click.echo(f"warning: {msg}; its particles stay unborn in this trajectory", err=True)
+
+
+def set_threads(threads: int) -> None:
+    """Numba/OpenMP thread count of this (worker) process."""
     os.environ["NUMBA_NUM_THREADS"] = str(threads)
     os.environ["OMP_NUM_THREADS"] = str(threads)
     try:
@@ -187,7 +222,6 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
     """Simulate one job and write ``out_dir/NAME.h5`` atomically. Returns a result record."""
     from ..scene import parse
     out_dir = Path(out_dir)
-    progress = progress or (_progress_queue.put if _progress_queue is not None else None)
     t0 = time.time()
     final = out_dir / f"{job.name}.h5"
     for stale in out_dir.glob(f".{job.name}.h5{TMP_MARK}*"):
@@ -196,20 +230,25 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
     try:
         src_path = None if job.source.startswith(("builtin:", "random:")) else Path(job.source)
         scene = parse(job.text(), src_path.name if src_path else job.source, src_path)
-        system = scene.realize(dim=job.dim, resolution=job.resolution)
-        settings = {**scene.solver, **(job.solver_overrides or {})}
-        sim, solver_name, settings_used = make_simulator(simulator, system, settings)
         duration = job.duration if job.duration is not None else scene.duration
         fdt = scene.frame_dt
+        check_duration(duration, fdt, "duration" if job.duration is None else "--duration")
+        if job.duration is None:
+            check_emitters(scene, duration, job.name)
         n_frames = int(round(duration / fdt))
         T = n_frames + 1
+        system = scene.realize(dim=job.dim, resolution=job.resolution, frames=T,
+                               max_particles=job.max_particles)
+        settings = {**scene.solver, **(job.solver_overrides or {})}
+        sim, solver_name, settings_used = make_simulator(simulator, system, settings)
         xs = np.empty((T,) + system.x.shape, dtype=np.float32)
         vs = np.empty_like(xs)
         xs[0], vs[0] = system.x, system.v
         times = fdt * np.arange(T)
         substeps = 0
         for k in range(1, T):
-            st = sim.advance(fdt) or getattr(sim, "stats", {})
+            with interrupt.deferred():  # a signal stops the run after this step
+                st = sim.advance(fdt) or getattr(sim, "stats", {})
             substeps += int(st.get("substeps", 0)) if isinstance(st, dict) else 0
             xs[k], vs[k] = sim.system.x, sim.system.v
             if progress:
@@ -254,9 +293,7 @@ def _jsonable(d):
 
 
 def _write_json(path: Path, obj) -> None:
-    tmp = path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
-    tmp.write_text(json.dumps(obj, indent=1, sort_keys=True))
-    os.replace(tmp, path)
+    write_text(path, json.dumps(obj, indent=1, sort_keys=True))
 
 
 # ------------------------------------------------------------------ the run
@@ -265,7 +302,7 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
              command: str = "", frames_of=None) -> dict:
     """Generate every job of this shard not yet finished in ``out_dir``. Returns a summary
     (counts of done / skipped / failed, timing). Jobs that diverge are recorded, the rest go on."""
-    out_dir = Path(out_dir)
+    out_dir = check_dir(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [j.name for j in jobs]
     dup = sorted({n for n in names if names.count(n) > 1})
@@ -301,37 +338,24 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
     results = []
     t0 = time.time()
     workers = max(1, min(workers, len(todo))) if todo else 1
-    try:
-        if workers == 1:
-            for j in todo:
-                results.append(run_job(j, out_dir, simulator, bar.update, version))
-                bar.set_postfix_str(f"done {len(results)}/{len(todo)}")
-        else:
-            import multiprocessing as mp
-            import threading
-            ctx = mp.get_context("spawn")
-            manager = ctx.Manager()
-            queue = manager.Queue()
-            stop = threading.Event()
 
-            def drain():
-                while not stop.is_set():
-                    try:
-                        bar.update(queue.get(timeout=0.2))
-                    except Exception:
-                        pass
-            th = threading.Thread(target=drain, daemon=True)
-            th.start()
-            threads = max(1, (os.cpu_count() or 1) // workers)
-            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
-                                     initargs=(threads, queue)) as pool:
-                futs = {pool.submit(run_job, j, out_dir, simulator, None, version): j for j in todo}
-                for fut in as_completed(futs):
-                    results.append(fut.result())
-                    bar.set_postfix_str(f"done {len(results)}/{len(todo)}")
-            stop.set()
-            th.join()
-            manager.shutdown()
+    def finished(rec):
+        results.append(rec)
+        bar.set_postfix_str(f"done {len(results)}/{len(todo)}")
+    try:
+        with interrupt.handling():
+            if workers == 1:
+                for j in todo:
+                    finished(run_job(j, out_dir, simulator, bar.update, version))
+            else:
+                from .pool import run_pool
+                threads = max(1, (os.cpu_count() or 1) // workers)
+                run_pool(todo, workers, threads, out_dir, simulator, version, bar.update, finished)
+    except interrupt.Interrupted as e:
+        bar.close()
+        ok = sum(r["status"] == "ok" for r in results)
+        raise interrupt.Interrupted(e.signum, f"{e}: {ok} trajectories written this run, the ones "
+                                    "in flight discarded; re-run the same command to resume") from None
     finally:
         bar.close()
     summary = {
@@ -385,14 +409,20 @@ def _write_index(out_dir: Path, summary: dict) -> None:
 @click.option("--simulator", type=click.Choice(["sph", "ballistic"]), default="sph", show_default=True,
               help="ballistic = free-fall stand-in for testing the pipeline only.")
 @click.option("--retry-failed", is_flag=True, help="Re-run trajectories that diverged before.")
+@click.option("--max-particles", type=float, default=None,
+              help="Particle budget per scene (default 1e7 or $DCDC_MAX_PARTICLES).")
 @click.option("--no-progress", is_flag=True)
 def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, min_ratio,
                      density_range, duration, split, workers, shard, sph_set, simulator,
-                     retry_failed, no_progress):
+                     retry_failed, max_particles, no_progress):
     """Simulate SCENES (built-in names or .toml files) or --random N scenes into a dataset.
 
     Re-running the same command resumes: finished trajectories are skipped.
     """
+    check_dir(out)
+    check_duration(duration)
+    if n_random < 0:
+        raise DcdcError(f"--random must be a number of scenes >= 1 (got {n_random})")
     overrides = {}
     for kv in sph_set:
         if "=" not in kv:
@@ -413,7 +443,9 @@ def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, mi
         cfg.check()
         jobs = random_jobs(n_random, seed, cfg, duration, split, overrides or None)
     else:
-        jobs = scene_jobs(scenes, dim, resolution, duration, split, overrides or None)
+        jobs = scene_jobs(scenes, dim, resolution, duration, split, overrides or None, max_particles)
+    for j in jobs:
+        j.max_particles = max_particles
     if simulator == "sph" and overrides:
         from ..sph import SPHConfig
         SPHConfig.from_dict(overrides)  # fail fast on a typo

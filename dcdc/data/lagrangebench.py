@@ -11,25 +11,33 @@ emitters (particles born later) are refused, as LagrangeBench has a fixed partic
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DcdcError
-from .dataset import TMP_MARK, Dataset
+from .dataset import Dataset
+from .outputs import atomic_dir, check_dir
 
 FLUID, SOLID_WALL = 0, 1
 
 
-def export_lagrangebench(splits: dict, out_dir, connectivity_radius: float | None = None) -> dict:
+def export_lagrangebench(splits: dict, out_dir, connectivity_radius: float | None = None,
+                         overwrite: bool = False) -> dict:
     """``splits``: {"train": path, "valid": path, "test": path} (any subset, train needed for
-    the statistics). Returns the metadata written."""
-    import h5py
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    the statistics). Returns the metadata written. The files are written into a temporary
+    directory that replaces ``out_dir`` at the end (an existing non-empty ``out_dir`` only
+    with ``overwrite``), so it never mixes two exports."""
     if "train" not in splits:
         raise DcdcError("export-lagrangebench needs a --train dataset (statistics come from it)")
+    check_dir(out_dir, overwrite=overwrite)
+    Path(out_dir).parent.mkdir(parents=True, exist_ok=True)
+    with atomic_dir(out_dir, overwrite=overwrite) as tmp:
+        return _export(splits, tmp, connectivity_radius)
+
+
+def _export(splits: dict, out: Path, connectivity_radius: float | None) -> dict:
+    import h5py
     meta, seq = {}, {}
     stats = {"vel": [], "acc": []}
     bounds_lo, bounds_hi, nmax = None, None, 0
@@ -55,9 +63,7 @@ def export_lagrangebench(splits: dict, out_dir, connectivity_radius: float | Non
         meta.setdefault("dx", 2 * t0.radius)
         T = min(t.n_frames for t in trajs)
         seq[split] = (T, len(trajs))
-        path_h5 = out / f"{split}.h5"
-        tmp = path_h5.with_name(f".{path_h5.name}{TMP_MARK}{os.getpid()}")
-        with h5py.File(tmp, "w") as f:
+        with h5py.File(out / f"{split}.h5", "w") as f:
             for k, t in enumerate(trajs):
                 x = t.position[:T]
                 w = t.wall_x
@@ -78,7 +84,6 @@ def export_lagrangebench(splits: dict, out_dir, connectivity_radius: float | Non
                     acc = np.diff(vel, axis=0)
                     stats["vel"].append(vel.reshape(-1, t0.dim))
                     stats["acc"].append(acc.reshape(-1, t0.dim))
-        os.replace(tmp, path_h5)
     vel = np.concatenate(stats["vel"])
     acc = np.concatenate(stats["acc"])
     r = meta["dx"] / 2

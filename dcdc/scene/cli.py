@@ -1,10 +1,10 @@
 """``dcdc scene``: list, show, check, copy and randomise scenes."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import click
 import numpy as np
+
+from ..data.outputs import check_file, write_text
 
 
 def _summary(system, scene) -> str:
@@ -46,12 +46,17 @@ def list_command():
 @click.option("--resolution", type=float, default=1.0, show_default=True,
               help="Scale every length by S at fixed particle radius (fluid count ~S^dim).")
 @click.option("--image", type=click.Path(dir_okay=False), default=None, help="Draw the initial state (PNG).")
-def show_command(scene, dim, resolution, image):
+@click.option("--overwrite", is_flag=True, help="Replace an existing --image file.")
+@click.option("--max-particles", type=float, default=None,
+              help="Particle budget (default 1e7 or $DCDC_MAX_PARTICLES).")
+def show_command(scene, dim, resolution, image, overwrite, max_particles):
     """Validate and describe SCENE (a built-in name or a .toml file)."""
     from . import get_scene
+    if image:
+        check_file(image, overwrite)
     sc = get_scene(scene)
     sc.check_solver()
-    system = sc.realize(dim=dim, resolution=resolution)
+    system = sc.realize(dim=dim, resolution=resolution, max_particles=max_particles)
     click.echo(_summary(system, sc))
     if image:
         from .draw import draw
@@ -62,10 +67,12 @@ def show_command(scene, dim, resolution, image):
 @scene_group.command("copy")
 @click.argument("name")
 @click.argument("output", type=click.Path(dir_okay=False))
-def copy_command(name, output):
+@click.option("--overwrite", is_flag=True, help="Replace an existing OUTPUT.")
+def copy_command(name, output, overwrite):
     """Write built-in scene NAME to OUTPUT (a starting point for your own scene)."""
     from . import builtin_text
-    Path(output).write_text(builtin_text(name))
+    check_file(output, overwrite)
+    write_text(output, builtin_text(name))
     click.echo(f"wrote {output}")
 
 
@@ -81,14 +88,20 @@ def copy_command(name, output):
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="Write the scene file here (default: stdout).")
 @click.option("--image", type=click.Path(dir_okay=False), default=None)
-def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, output, image):
+@click.option("--overwrite", is_flag=True, help="Replace existing --output / --image files.")
+def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, output, image, overwrite):
     """A random training scene, reproducible from --seed."""
+    from ..data.generate import check_duration
     from .random import RandomSceneConfig, random_scene_text
+    for path in (output, image):
+        if path:
+            check_file(path, overwrite)
+    check_duration(duration)
     cfg = RandomSceneConfig(dim=dim, max_ratio=max_ratio, min_ratio=min_ratio,
                             density_range=density_range, duration=duration)
     text = random_scene_text(seed, cfg)
     if output:
-        Path(output).write_text(text)
+        write_text(output, text)
         click.echo(f"wrote {output}", err=True)
     else:
         click.echo(text, nl=False)

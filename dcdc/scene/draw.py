@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.outputs import atomic_file
 from ..particles import ParticleSystem
 from ..render import side_view
 
@@ -60,6 +61,9 @@ def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=
     fig.legend(loc="lower center", ncol=max(1, len(system.phases)), fontsize=8, frameon=False)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90, bbox_inches="tight")
-    plt.close(fig)
+    try:
+        with atomic_file(path) as tmp:  # a picture is never half-written
+            fig.savefig(tmp, dpi=90, bbox_inches="tight", format=path.suffix[1:].lower() or "png")
+    finally:
+        plt.close(fig)
     return path

@@ -152,7 +152,7 @@ class _Checker:
                 self.fail(path, f"must be an integer (got {v!r})")
             return v
         if kind == "dim":
-            if v not in (2, 3) or isinstance(v, bool):
+            if not isinstance(v, int) or isinstance(v, bool) or v not in (2, 3):
                 self.fail(path, f"must be 2 or 3 (got {v!r})")
             return v
         if kind == "bool":
@@ -218,7 +218,7 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     """Check a parsed scene table against the schema; return it with defaults filled in."""
     ck = _Checker(text, source)
     dim = raw.get("dim")
-    if dim not in (2, 3) or isinstance(dim, bool):
+    if not isinstance(dim, int) or isinstance(dim, bool) or dim not in (2, 3):
         ck.fail("dim", f"must be 2 or 3 (got {dim!r})" if "dim" in raw else "is required")
     s = ck.table("", raw, TOP, dim)
     if not NAME_RE.match(s["name"]):
@@ -308,8 +308,8 @@ def _transform(s: dict, dim: int, scale: float) -> dict:
         raise DcdcError(f"dim must be 2 or 3 (got {dim})")
     if dim > src:
         raise DcdcError(f"scene {s['name']} is {src}-D; it has no {dim}-D variant")
-    if not scale > 0:
-        raise DcdcError(f"resolution must be > 0 (got {scale})")
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+        raise DcdcError(f"resolution must be a finite number > 0 (got {scale})")
 
     def conv(d, spec):
         for k, (kind, _) in spec.items():
@@ -556,13 +556,18 @@ class Scene:
         return _transform(self.data, dim or self.dim, resolution)
 
     def realize(self, dim: int | None = None, resolution: float = 1.0,
-                check: bool = True) -> ParticleSystem:
+                check: bool = True, frames: int | None = None,
+                max_particles: float | None = None) -> ParticleSystem:
         """Particles of this scene (the ``dim``-D variant at ``resolution``); with ``check``,
-        overlaps and fluid inside walls/outside the domain raise :class:`DcdcError`."""
+        overlaps and fluid inside walls/outside the domain raise :class:`DcdcError`.
+        The particle and memory budget (:mod:`.budget`; ``frames`` stored frames, a
+        ``max_particles`` override) is checked before anything is allocated."""
         from ..geometry import sample_walls
         from ..neighbors import radius_search
+        from . import budget
 
         s = self.variant(dim, resolution)
+        budget.check(s, str(self.path.name) if self.path else self.name, frames, max_particles)
         dim = s["dim"]
         r = s["radius"]
         spacing = 2 * r
