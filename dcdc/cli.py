@@ -20,6 +20,10 @@ COMMANDS = {
     "scene": "dcdc.scene.cli:scene_group",
     "generate": "dcdc.data.generate:generate_command",
     "dataset": "dcdc.data.cli:dataset_group",
+    "train": "dcdc.train.cli:train_command",
+    "render": "dcdc.render.cli:render_command",
+    "export": "dcdc.render.cli:export_command",
+    "view": "dcdc.render.cli:view_command",
 }
 BENCHMARKS = {
     "sph": "dcdc.sph.benchmark:benchmark_command",

@@ -1,0 +1,10 @@
+"""Seeing results: pictures, animations, exports and a browser viewer of trajectories.
+
+* :mod:`.camera`, :mod:`.splat`, :mod:`.frames`, :mod:`.overlay`, :mod:`.video`: the
+  ``dcdc render`` rasteriser (shaded sphere impostors in a z-buffer) and its outputs;
+* :mod:`.compare`: the error between two trajectories shown by ``render --compare``;
+* :mod:`.export`: PLY / VTK / VTU + PVD files for Blender and ParaView (``dcdc export``);
+* :mod:`.view`: one self-contained WebGL HTML page (``dcdc view``);
+* :mod:`.sideview`: matplotlib side views used by ``dcdc scene show`` and the demo.
+"""
+from .sideview import animate, side_view, snapshot_strip  # noqa: F401

@@ -1,0 +1,207 @@
+"""Export particle frames for ParaView and Blender: PLY, legacy VTK and XML VTU point clouds.
+
+The writers take positions [N, d] (2-D points get z = 0) and named per-particle fields
+(scalars [N] or vectors [N, d]). Files are written to a temporary name and renamed, so a
+file that exists is complete. :func:`export_trajectory` (``dcdc export``) writes every
+frame of a trajectory: one PLY per frame (with per-vertex phase colours, which Blender's
+importer shows) or one VTU per frame plus a ``.pvd`` time index (ParaView opens the
+``.pvd`` as one time series), the walls as one more file of points with their normals.
+
+VTU (XML UnstructuredGrid of vertex cells, VTK file format spec "VTK XML Formats") rather
+than VTP (PolyData): ParaView treats both alike in a ``.pvd``, and VTU is what maintained
+Python readers (meshio) read back, which the tests do.
+"""
+from __future__ import annotations
+
+import base64
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DcdcError
+
+
+def _as_3d(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a, dtype=np.float32)
+    if a.ndim != 2 or a.shape[1] not in (2, 3):
+        raise DcdcError(f"expected an [N, 2|3] array, got shape {a.shape}")
+    return a if a.shape[1] == 3 else np.concatenate([a, np.zeros((len(a), 1), np.float32)], 1)
+
+
+def _columns(x: np.ndarray, fields: dict[str, np.ndarray]):
+    """Positions as 3-D and each field as float32 scalar columns / 3-D vectors, checked."""
+    x3 = _as_3d(x)
+    cols = {}
+    for name, f in fields.items():
+        f = np.asarray(f)
+        if len(f) != len(x3):
+            raise DcdcError(f"field '{name}' has {len(f)} values for {len(x3)} particles")
+        cols[name] = _as_3d(f) if f.ndim == 2 else f.astype(np.float32).reshape(-1)
+    return x3, cols
+
+
+def _atomic_write(path: str | os.PathLike, data: bytes) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+    return path
+
+
+def write_ply(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None,
+              colors: np.ndarray | None = None) -> Path:
+    """Binary little-endian PLY vertex list (x, y, z + one float property per scalar and
+    ``name_x/_y/_z`` per vector field, then ``red green blue`` uchar when ``colors`` [N, 3]
+    in [0, 1] are given); Blender and ParaView read it."""
+    x3, cols = _columns(x, fields or {})
+    names, arrays = ["x", "y", "z"], [x3]
+    for name, c in cols.items():
+        if c.ndim == 2:
+            names += [f"{name}_x", f"{name}_y", f"{name}_z"]
+        else:
+            names.append(name)
+            c = c[:, None]
+        arrays.append(c)
+    floats = np.concatenate(arrays, 1).astype("<f4")
+    dtype = [(n, "<f4") for n in names]
+    props = [f"property float {n}" for n in names]
+    if colors is not None:
+        colors = np.asarray(colors, np.float64)
+        if colors.shape != (len(x3), 3):
+            raise DcdcError(f"colors must be [{len(x3)}, 3], got {colors.shape}")
+        dtype += [(c, "u1") for c in ("red", "green", "blue")]
+        props += [f"property uchar {c}" for c in ("red", "green", "blue")]
+    table = np.empty(len(x3), dtype)
+    for k, n in enumerate(names):
+        table[n] = floats[:, k]
+    if colors is not None:
+        rgb = np.clip(np.round(colors * 255), 0, 255).astype(np.uint8)
+        for k, c in enumerate(("red", "green", "blue")):
+            table[c] = rgb[:, k]
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(x3)}"]
+    header += props + ["end_header"]
+    return _atomic_write(path, ("\n".join(header) + "\n").encode() + table.tobytes())
+
+
+def write_vtk(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
+    """Legacy binary VTK POLYDATA with one vertex cell per particle and point data."""
+    x3, cols = _columns(x, fields or {})
+    n = len(x3)
+    out = [b"# vtk DataFile Version 3.0\ndcdc particles\nBINARY\nDATASET POLYDATA\n",
+           f"POINTS {n} float\n".encode(), x3.astype(">f4").tobytes(), b"\n",
+           f"VERTICES {n} {2 * n}\n".encode(),
+           np.stack([np.ones(n), np.arange(n)], 1).astype(">i4").tobytes(), b"\n"]
+    if cols:
+        out.append(f"POINT_DATA {n}\n".encode())
+    for name, c in cols.items():
+        if c.ndim == 2:
+            out += [f"VECTORS {name} float\n".encode(), c.astype(">f4").tobytes(), b"\n"]
+        else:
+            out += [f"SCALARS {name} float 1\nLOOKUP_TABLE default\n".encode(),
+                    c.astype(">f4").tobytes(), b"\n"]
+    return _atomic_write(path, b"".join(out))
+
+
+def _b64_block(a: np.ndarray) -> str:
+    """One inline binary DataArray: base64 of a UInt64 byte count followed by the data."""
+    raw = np.ascontiguousarray(a).tobytes()
+    return base64.b64encode(np.uint64(len(raw)).tobytes() + raw).decode("ascii")
+
+
+def _data_array(name: str | None, a: np.ndarray, components: int = 1) -> str:
+    vtk_type = {"f4": "Float32", "i4": "Int32", "i8": "Int64", "u1": "UInt8"}[a.dtype.str[1:]]
+    attr = f' Name="{name}"' if name else ""
+    return (f'<DataArray type="{vtk_type}"{attr} NumberOfComponents="{components}" '
+            f'format="binary">{_b64_block(a)}</DataArray>')
+
+
+def write_vtu(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
+    """XML UnstructuredGrid (``.vtu``), one vertex cell per particle, point data float32
+    (vectors with 3 components; integer fields such as the phase as Int32), inline base64
+    binary arrays with UInt64 headers."""
+    x3, cols = _columns(x, fields or {})
+    n = len(x3)
+    ints = {k for k, f in (fields or {}).items() if np.asarray(f).dtype.kind in "iub"}
+    point_data = []
+    for name, c in cols.items():
+        if name in ints:
+            c = np.asarray(fields[name]).astype("<i4")
+        point_data.append(_data_array(name, c.astype(c.dtype.newbyteorder("<")),
+                                      3 if c.ndim == 2 else 1))
+    xml = ['<?xml version="1.0"?>',
+           '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
+           'header_type="UInt64">', "<UnstructuredGrid>",
+           f'<Piece NumberOfPoints="{n}" NumberOfCells="{n}">',
+           "<PointData>", *point_data, "</PointData>",
+           "<Points>", _data_array(None, x3.astype("<f4"), 3), "</Points>",
+           "<Cells>", _data_array("connectivity", np.arange(n, dtype="<i8")),
+           _data_array("offsets", np.arange(1, n + 1, dtype="<i8")),
+           _data_array("types", np.full(n, 1, "u1")),  # VTK_VERTEX
+           "</Cells>", "</Piece>", "</UnstructuredGrid>", "</VTKFile>", ""]
+    return _atomic_write(path, "\n".join(xml).encode())
+
+
+def write_pvd(path, entries) -> Path:
+    """ParaView collection: ``entries`` of (time, part, file name relative to ``path``)."""
+    rows = "\n".join(f'<DataSet timestep="{t!r}" group="" part="{part}" file="{f}"/>'
+                     for t, part, f in entries)
+    xml = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
+           f'byte_order="LittleEndian">\n<Collection>\n{rows}\n</Collection>\n</VTKFile>\n')
+    return _atomic_write(path, xml.encode())
+
+
+WRITERS = {".ply": write_ply, ".vtk": write_vtk, ".vtu": write_vtu}
+
+
+def write_points(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
+    """Write by extension (.ply, .vtk or .vtu)."""
+    ext = Path(path).suffix.lower()
+    if ext not in WRITERS:
+        raise DcdcError(f"unknown point-cloud format '{ext}' (use .ply, .vtk or .vtu)")
+    return WRITERS[ext](path, x, fields)
+
+
+EXPORT_FORMATS = {"ply": ".ply", "vtk": ".vtu"}
+
+
+def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None) -> list[Path]:
+    """Every frame in ``frames`` (default: all) of ``traj`` into the directory ``out_dir``:
+    ``frame_NNNNN.ply`` or ``.vtu`` with the particles present at that time (fields
+    ``id``, ``phase``, ``density`` = rest density [kg/m³], ``velocity`` [m/s]), the walls as
+    ``walls.*`` (field ``normal``), and for VTU ``NAME.pvd`` (the time series, walls as
+    part 1 at every time). ``progress(1)`` is called per frame. Returns the written files."""
+    if fmt not in EXPORT_FORMATS:
+        raise DcdcError(f"unknown export format {fmt!r} (use {' or '.join(EXPORT_FORMATS)})")
+    ext = EXPORT_FORMATS[fmt]
+    writer = WRITERS[ext]
+    out_dir = Path(out_dir)
+    frames = range(traj.n_frames) if frames is None else frames
+    colors = np.array([p.color for p in traj.phases], np.float64).reshape(-1, 3)
+    phase, density, birth, times = traj.phase, traj.density, traj.birth, traj.time
+    ids = np.arange(traj.n_particles, dtype=np.int32)
+    written, entries = [], []
+    walls = f"walls{ext}"
+    wall_fields = {"normal": traj.wall_n}
+    if fmt == "ply":
+        written.append(write_ply(out_dir / walls, traj.wall_x, wall_fields,
+                                 colors=np.full((len(traj.wall_x), 3), 0.6)))
+    else:
+        written.append(writer(out_dir / walls, traj.wall_x, wall_fields))
+    for f in frames:
+        active = birth <= times[f] + 1e-9
+        fields = {"id": ids[active], "phase": phase[active], "density": density[active],
+                  "velocity": traj._get("velocity", f)[active]}
+        name = f"frame_{f:05d}{ext}"
+        x = traj._get("position", f)[active]
+        if fmt == "ply":
+            written.append(write_ply(out_dir / name, x, fields, colors=colors[phase[active]]))
+        else:
+            written.append(writer(out_dir / name, x, fields))
+            entries += [(float(times[f]), 0, name), (float(times[f]), 1, walls)]
+        if progress:
+            progress(1)
+    if fmt == "vtk":
+        written.append(write_pvd(out_dir / f"{traj.name}.pvd", entries))
+    return written
