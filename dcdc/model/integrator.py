@@ -56,7 +56,7 @@ def step(model, position, velocity, density, wall_position=None, wall_normal=Non
     window's frame can be passed as ``step(net, **inputs)``.
 
     Args:
-        model: a :class:`~dcdc.model.networks.CorrectionNet`.
+        model: a :class:`~dcdc.model.networks.CorrectionNet` (or a DDP wrapper of one).
         position, velocity: [N, d] positions and velocities (tensors or arrays).
         density: [N] per-particle rest densities [kg/m³] (> 0).
         wall_position, wall_normal: [M, d] wall particles and normals (optional).
@@ -65,11 +65,12 @@ def step(model, position, velocity, density, wall_position=None, wall_normal=Non
         scenes: :class:`~dcdc.model.networks.Scenes` when the arrays concatenate several
             scenes (one forward pass; particles of different scenes never interact).
     """
-    p = next(model.parameters())
-    dt = model.cfg.frame_dt if dt is None else dt
+    net = getattr(model, "module", model)  # a DistributedDataParallel wrapper: its network
+    p = next(net.parameters())
+    dt = net.cfg.frame_dt if dt is None else dt
     x = torch.as_tensor(position).to(dtype=p.dtype, device=p.device)
     v = torch.as_tensor(velocity).to(dtype=p.dtype, device=p.device)
-    _check_inputs(model, x, v, density, wall_position, wall_normal, dt)
+    _check_inputs(net, x, v, density, wall_position, wall_normal, dt)
     x_star, v_star = inertial(x, v, dt, gravity)
     dx = model(x_star, v_star, density, wall_position, wall_normal, scenes=scenes)
     x_new = x_star + dx

@@ -157,6 +157,7 @@ class CorrectionNet(nn.Module):
         self.wall_out = CConvLayer(dim, dim, dim, K) if self.antisymmetric else None
         self.profile = False
         self.timings: dict[str, float] = {}
+        self.last_context: StepContext | None = None
 
     # ------------------------------------------------------------------ config
     def config(self) -> dict:
@@ -215,6 +216,7 @@ class CorrectionNet(nn.Module):
         """
         if ctx is None:
             ctx = self.prepare(x, density, wall_x, scenes)
+        self.last_context = ctx  # e.g. the loss weights particles by their neighbour count
         p = next(self.parameters())
         dtype, dev = p.dtype, p.device
         v = torch.as_tensor(v).to(dtype=dtype, device=dev)
