@@ -357,7 +357,9 @@ class Trainer:
                 stage = idx
                 t0 = time.perf_counter()
                 loss, parts, n_part = self.train_step(s, cap)
-                loss, *parts = _all_mean([loss] + parts, d)
+                # the whole batch's numbers: losses averaged over ranks, particles summed
+                loss, *parts, n_part = _all_mean([loss] + parts + [n_part * d.world], d)
+                n_part = int(round(n_part))
                 self.step = s + 1
                 dt = time.perf_counter() - t0
                 self.wall_time += dt
