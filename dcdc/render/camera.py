@@ -118,13 +118,18 @@ def fit_camera(lo, hi, width: int, height: int | None = None, scene: str | None 
             height = int(np.clip(height, 64, 4 * width))
         scale = zoom * min(width / span[0], height / span[1]) / MARGIN
         return Camera(2, _even(width), _even(height), tuple(centre), scale=scale)
-    height = height or int(round(width * 0.75))
     az0, el0 = PRESETS.get(scene or "", DEFAULT_VIEW)
     az = az0 if azimuth is None else azimuth
     el = el0 if elevation is None else elevation
     if not -90 <= el <= 90:
         raise DcdcError(f"elevation must be within [-90, 90] degrees (got {el})")
     direction = view_direction(az, el)
+    if height is None:  # the picture takes the shape of the box as seen from there
+        trial = Camera(3, 1000, 1000, tuple(centre), tuple(centre + direction))
+        trial = replace(trial, eye=tuple(centre + _fit_distance(trial, lo, hi) * direction))
+        sx, sy, _, _ = trial.project(_corners(lo, hi))
+        aspect = (sy.max() - sy.min()) / max(sx.max() - sx.min(), 1e-9)
+        height = int(round(width * float(np.clip(aspect, 0.5, 2.0))))
     cam = Camera(3, _even(width), _even(height), tuple(centre), tuple(centre + direction))
     if distance is None:
         distance = _fit_distance(cam, lo, hi) / zoom
@@ -136,13 +141,17 @@ def fit_camera(lo, hi, width: int, height: int | None = None, scene: str | None 
 def _fit_distance(cam: Camera, lo, hi) -> float:
     """Smallest eye distance from the target at which every box corner projects inside."""
     r, u, f = cam.basis()
-    corners = np.array([[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1])
-                        for c in (lo[2], hi[2])]) - np.asarray(cam.target)
+    corners = _corners(lo, hi) - np.asarray(cam.target)
     tan_v = 0.5 * cam.height / cam.focal
     tan_h = tan_v * cam.width / cam.height
     # corner at depth d + c.f must satisfy |c.r| <= tan_h (d + c.f), |c.u| <= tan_v (d + c.f)
     need = np.maximum(np.abs(corners @ r) / tan_h, np.abs(corners @ u) / tan_v) - corners @ f
     return MARGIN * float(need.max())
+
+
+def _corners(lo, hi) -> np.ndarray:
+    return np.array([[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1])
+                     for c in (lo[2], hi[2])], np.float64)
 
 
 def _even(n) -> int:

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from .camera import Camera, fit_camera
-from .splat import resolve, splat
+from .splat import LIGHT, MATERIAL, resolve, shade_layer, splat
 
 BACKGROUND = np.array([0.975, 0.975, 0.97])
 WALL_COLOR = np.array([0.55, 0.56, 0.6])
@@ -102,11 +102,13 @@ class FrameRenderer:
     def _draw_walls(self):
         x, n = self.traj.wall_x, self.traj.wall_n
         keep = self._keep(x) & self.camera.faces_camera(x, n)
-        x = x[keep]
         zbuf = np.full(self.shape, np.inf)
+        ids = np.full(self.shape, -1, np.int32)
+        sx, sy, depth, rad = self._project(x[keep])
+        sx, sy, rad, _ = splat(sx, sy, depth, rad, self.traj.radius, zbuf, ids)
         rgb = np.zeros(self.shape + (3,))
-        sx, sy, depth, rad = self._project(x)
-        splat(sx, sy, depth, rad, self.traj.radius, WALL_COLOR, zbuf, rgb)
+        colors = np.broadcast_to(WALL_COLOR, (len(sx), 3)).copy()
+        shade_layer(ids, sx, sy, rad, colors, LIGHT, MATERIAL, rgb)
         return zbuf, rgb
 
     def fluid(self, f: int):
@@ -121,11 +123,12 @@ class FrameRenderer:
         if x is None:
             x, colors = self.fluid(f)
         zbuf = np.full(self.shape, np.inf)
-        rgb = np.empty(self.shape + (3,), np.float64)
+        ids = np.full(self.shape, -1, np.int32)
         sx, sy, depth, rad = self._project(x)
-        splat(sx, sy, depth, rad, self.traj.radius, colors, zbuf, rgb)
+        sx, sy, rad, order = splat(sx, sy, depth, rad, self.traj.radius, zbuf, ids)
+        colors = np.ascontiguousarray(np.asarray(colors, np.float64).reshape(-1, 3)[order])
         out = np.empty((self.camera.height, self.camera.width, 3), np.uint8)
         wz, wrgb = self._walls if self._walls is not None else (_NONE2, _NONE3)
-        resolve(zbuf, rgb, wz, wrgb, self.wall_alpha, self.traj.dim == 3, BACKGROUND, self.ss,
-                out)
+        resolve(zbuf, ids, sx, sy, rad, colors, LIGHT, MATERIAL, wz, wrgb, self.wall_alpha,
+                self.traj.dim == 3, BACKGROUND, self.ss, out)
         return out

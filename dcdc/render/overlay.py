@@ -49,43 +49,52 @@ def length_label(metres: float) -> str:
 def legend_band(width: int, phases, ppm: float | None = None, dim: int = 2,
                 left: str | None = None, size: int | None = None) -> np.ndarray:
     """A white band: ``left`` text (e.g. the time), one coloured disc with "name ρ kg/m³"
-    per phase, and at the right a scale bar for ``ppm`` pixels per metre (in 3-D the scale
-    at the centre of the view)."""
+    per phase (wrapping onto more rows when needed), and at the right of the first row a
+    scale bar for ``ppm`` pixels per metre (in 3-D the scale at the centre of the view)."""
     from PIL import Image, ImageDraw
     fs = size or font_size(width)
-    h = int(fs * 2.2)
-    im = Image.new("RGB", (width, h), PAPER)
-    d = ImageDraw.Draw(im)
     f = font(fs)
-    x, y = int(fs * 0.6), h // 2
-    if left:
-        d.text((x, y), left, fill=INK, font=f, anchor="lm")
-        x += int(d.textlength(left, font=f)) + 2 * fs
-    bar_room = 0
+    measure = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+    pad, r, row_h = int(fs * 0.6), fs * 0.42, int(fs * 2.2)
+    bar = None
     if ppm:
-        target = min(width / 7, 12 * fs) / ppm
-        L = nice_length(target)
-        px = int(round(L * ppm))
+        L = nice_length(min(width / 7, 12 * fs) / ppm)
         label = length_label(L) + (" at centre" if dim == 3 else "")
-        tw = int(d.textlength(label, font=f))
-        x1 = width - int(fs * 0.6)
+        px = int(round(L * ppm))
+        bar = (px, label, max(px, int(measure.textlength(label, font=f))))
+    # lay out the items (left text, then the phases) into rows
+    items = ([("text", left, None)] if left else []) + \
+        [("phase", f"{p.name} {p.density:g} kg/m³", p.color) for p in phases]
+    rows, x, row = [[]], pad, 0
+    for kind, text, col in items:
+        w = int(measure.textlength(text, font=f) + (2 * r + fs * 0.4 if kind == "phase" else 0))
+        limit = width - pad - (bar[2] + fs if bar and row == 0 else 0)
+        if rows[-1] and x + w > limit:
+            rows.append([])
+            x, row = pad, row + 1
+        rows[-1].append((x, kind, text, col))
+        x += w + int(fs * 1.2)
+    im = Image.new("RGB", (width, row_h * len(rows)), PAPER)
+    d = ImageDraw.Draw(im)
+    for k, entries in enumerate(rows):
+        y = k * row_h + row_h // 2
+        for x, kind, text, col in entries:
+            if kind == "phase":
+                rgb = tuple(int(round(255 * c)) for c in col)
+                d.ellipse([x, y - r, x + 2 * r, y + r], fill=rgb, outline=INK)
+                x += int(2 * r + fs * 0.4)
+            d.text((x, y), text, fill=INK, font=f, anchor="lm")
+    if bar:
+        px, label, room = bar
+        y = row_h // 2
+        x1 = width - pad
         x0 = x1 - px
         d.rectangle([x0, y + fs * 0.35, x1, y + fs * 0.35 + max(2, fs // 5)], fill=INK)
         for xe in (x0, x1):
             d.line([xe, y + fs * 0.1, xe, y + fs * 0.7], fill=INK, width=max(1, fs // 10))
-        d.text(((x0 + x1) // 2, y + fs * 0.2), label, fill=INK, font=f, anchor="md")
-        bar_room = max(px, tw) + 2 * fs
-    r = fs * 0.42
-    for p in phases:
-        text = f"{p.name} {p.density:g} kg/m³"
-        need = 2 * r + fs * 0.4 + d.textlength(text, font=f)
-        if x + need > width - bar_room:
-            break  # no room: the picture stays legible, the legend short
-        col = tuple(int(round(255 * c)) for c in p.color)
-        d.ellipse([x, y - r, x + 2 * r, y + r], fill=col, outline=INK)
-        x += int(2 * r + fs * 0.4)
-        d.text((x, y), text, fill=INK, font=f, anchor="lm")
-        x += int(d.textlength(text, font=f) + fs * 1.2)
+        tw = measure.textlength(label, font=f)
+        d.text((min((x0 + x1) / 2, x1 - tw / 2), y + fs * 0.2), label, fill=INK, font=f,
+               anchor="md")
     return np.asarray(im)
 
 
