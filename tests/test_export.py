@@ -44,3 +44,98 @@ def test_bad_export_input(tmp_path):
         write_points(tmp_path / "f.xyz", np.zeros((2, 3)))
     with pytest.raises(DcdcError, match="field 'a' has 3 values for 2"):
         write_points(tmp_path / "f.ply", np.zeros((2, 3)), {"a": np.zeros(3)})
+
+
+# ----------------------------------------------------------------- dcdc export (whole runs)
+import xml.etree.ElementTree as ET  # noqa: E402
+
+from dcdc.cli import main  # noqa: E402
+from dcdc.render.figures import open_trajectory  # noqa: E402
+
+SAMPLE = "data/sample/test2d/hourglass_2d.h5"
+
+
+def _cli(*args):
+    try:
+        main([str(a) for a in args])
+        return 0
+    except SystemExit as e:
+        return e.code
+
+
+def test_export_vtu_series_reads_back_with_meshio(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    traj = open_trajectory(SAMPLE)
+    out = tmp_path / "vtk"
+    assert _cli("export", SAMPLE, "--format", "vtk", "--frames", "0:30", "--stride", 10,
+                "--out", out, "--no-progress") == 0
+    pvd = ET.parse(out / "hourglass_2d.pvd").getroot()
+    sets = pvd.findall("./Collection/DataSet")
+    frames = [d.get("file") for d in sets if d.get("part") == "0"]
+    assert frames == ["frame_00000.vtu", "frame_00010.vtu", "frame_00020.vtu"]
+    times = [float(d.get("timestep")) for d in sets if d.get("part") == "0"]
+    np.testing.assert_allclose(times, traj.time[[0, 10, 20]])
+    assert all(d.get("file") == "walls.vtu" for d in sets if d.get("part") == "1")
+    m = meshio.read(out / "frame_00010.vtu")
+    np.testing.assert_allclose(m.points[:, :2], traj.position[10], rtol=1e-6)
+    assert np.all(m.points[:, 2] == 0)
+    np.testing.assert_array_equal(m.point_data["phase"].ravel(), traj.phase)
+    np.testing.assert_allclose(m.point_data["density"].ravel(), traj.density)
+    np.testing.assert_allclose(m.point_data["velocity"][:, :2], traj.velocity[10], rtol=1e-6)
+    assert m.cells[0].type == "vertex" and len(m.cells[0].data) == traj.n_particles
+    w = meshio.read(out / "walls.vtu")
+    np.testing.assert_allclose(w.points[:, :2], traj.wall_x, rtol=1e-6)
+    np.testing.assert_allclose(w.point_data["normal"][:, :2], traj.wall_n, rtol=1e-6)
+
+
+def test_export_ply_frames_read_back_with_meshio(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    traj = open_trajectory(SAMPLE)
+    out = tmp_path / "ply"
+    assert _cli("export", SAMPLE, "--format", "ply", "--frames", "-1:", "--out", out,
+                "--no-progress") == 0
+    assert sorted(p.name for p in out.iterdir()) == ["frame_00050.ply", "walls.ply"]
+    m = meshio.read(out / "frame_00050.ply")
+    np.testing.assert_allclose(m.points[:, :2], traj.position[-1], rtol=1e-6)
+    np.testing.assert_array_equal(m.point_data["phase"], traj.phase)
+    np.testing.assert_array_equal(m.point_data["id"], np.arange(traj.n_particles))
+    np.testing.assert_allclose(m.point_data["velocity_y"], traj.velocity[-1][:, 1], rtol=1e-6)
+    red = m.point_data["red"].astype(np.uint8)  # meshio reads uchar as int8
+    want = np.round(np.array([p.color for p in traj.phases])[traj.phase, 0] * 255)
+    np.testing.assert_array_equal(red, want)
+
+
+def test_export_skips_unborn_particles(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    from dcdc.render.export import export_trajectory
+
+    class Late:  # a trajectory whose particle 0 is emitted after frame 0
+        def __init__(self, t):
+            self.t = t
+
+        def __getattr__(self, k):
+            return getattr(self.t, k)
+
+        @property
+        def birth(self):
+            b = self.t.birth.copy()
+            b[0] = 0.5
+            return b
+
+    traj = Late(open_trajectory(SAMPLE))
+    export_trajectory(traj, "vtk", tmp_path, [0, 30])
+    assert len(meshio.read(tmp_path / "frame_00000.vtu").points) == traj.n_particles - 1
+    assert len(meshio.read(tmp_path / "frame_00030.vtu").points) == traj.n_particles
+
+
+def test_export_refuses_existing_and_unknown(tmp_path, capsys):
+    out = tmp_path / "e"
+    out.mkdir()
+    (out / "keep.txt").write_text("x")
+    for args, msg in [(("export", SAMPLE, "--format", "ply", "--out", out), "exists"),
+                      (("export", SAMPLE, "--format", "ply", "--out", out, "--overwrite"), "holds other things"),
+                      (("export", tmp_path / "no.h5", "--format", "vtk", "--out", tmp_path / "f"), "no such")]:
+        assert _cli(*args) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and msg in err[0]
+    assert (out / "keep.txt").exists()

@@ -1,0 +1,87 @@
+"""dcdc view: the page's data decode to the trajectory, the page is offline, and in headless
+Chromium (when installed) it draws particles and playback advances."""
+import base64
+import json
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from dcdc.cli import main
+from dcdc.render.figures import open_trajectory
+from dcdc.render.view import page_data, render_page, view_frames
+
+SAMPLE = "data/sample/test2d/hourglass_2d.h5"
+
+
+def _cli(*args):
+    try:
+        main([str(a) for a in args])
+        return 0
+    except SystemExit as e:
+        return e.code
+
+
+def test_view_frames_subsample():
+    assert view_frames(51, 200) == list(range(51))
+    sel = view_frames(51, 10)
+    assert len(sel) <= 10 and sel[0] == 0 and sel[-1] == 50  # the last frame is kept
+    assert np.all(np.diff(sel[:-1]) == sel[1])
+    assert view_frames(51, 100, stride=20) == [0, 20, 40, 50]
+
+
+def test_page_data_decode_to_the_trajectory():
+    traj = open_trajectory(SAMPLE)
+    frames = [0, 25, 50]
+    d = page_data(traj, frames)
+    q = np.frombuffer(base64.b64decode(d["positions"]), "<u2").reshape(3, traj.n_particles, 3)
+    lo, hi = np.array(d["lo"]), np.array(d["hi"])
+    x = lo + q / 65535.0 * (hi - lo)
+    err = np.abs(x[:, :, :2] - traj.position[frames]).max()
+    assert err <= (hi - lo).max() / 65535 * 0.51
+    assert np.array_equal(np.frombuffer(base64.b64decode(d["phase"]), np.uint8), traj.phase)
+    assert d["times"] == pytest.approx(list(traj.time[frames]))
+    assert [p["name"] for p in d["phases"]] == [p.name for p in traj.phases]
+    n = np.frombuffer(base64.b64decode(d["wall_normals"]), np.int8).reshape(-1, 3) / 127
+    np.testing.assert_allclose(n[:, :2], traj.wall_n, atol=0.005)
+
+
+def test_page_is_self_contained(tmp_path):
+    out = tmp_path / "v.html"
+    assert _cli("view", SAMPLE, "--html", out, "--max-frames", 20) == 0
+    html = out.read_text()
+    assert "/*DCDC_DATA*/" not in html
+    assert not re.search(r"(src|href)\s*=\s*[\"']?(https?:)?//", html)  # nothing fetched
+    blob = re.search(r"var DATA = (\{.*?\});\n", html).group(1)
+    assert len(json.loads(blob)["times"]) <= 20
+    assert _cli("view", SAMPLE, "--html", out) == 2  # exists
+    assert _cli("view", SAMPLE, "--html", tmp_path / "v.txt") == 2
+
+
+def test_names_cannot_end_the_script():
+    traj = open_trajectory(SAMPLE)
+    d = page_data(traj, [0])
+    d["name"] = "</script><script>alert(1)"
+    assert "</script><script>" not in render_page(d)
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed (apt-get install chromium)")
+def test_page_plays_in_headless_chromium(tmp_path):
+    out = tmp_path / "v.html"
+    assert _cli("view", SAMPLE, "--html", out) == 0
+    cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+           "--disable-extensions", f"--user-data-dir={tmp_path / 'profile'}",
+           "--window-size=640,720", "--virtual-time-budget=3000", "--dump-dom", out.as_uri()]
+    dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120).stdout
+    body = re.search(r"<body([^>]*)>", dom)
+    assert body, dom[:500]
+    attrs = dict(re.findall(r'data-(\w+)="([^"]*)"', body.group(1)))
+    assert "error" not in attrs
+    assert int(attrs["painted"]) > 200   # of 4096 probes: particles and walls on the canvas
+    assert int(attrs["frame"]) > 5       # playback advanced
+    assert re.search(r"<title>dcdc view: hourglass_2d frame \d+ / 50</title>", dom)
