@@ -5,6 +5,9 @@
 * :mod:`.compare`: the error between two trajectories shown by ``render --compare``;
 * :mod:`.export`: PLY / VTK / VTU + PVD files for Blender and ParaView (``dcdc export``);
 * :mod:`.view`: one self-contained WebGL HTML page (``dcdc view``);
-* :mod:`.sideview`: matplotlib side views used by ``dcdc scene show`` and the demo.
+* :mod:`.figures`: animations, strips and comparisons (also :func:`snapshot_strip` and
+  :func:`animate` for Python callers such as ``dcdc demo``);
+* :mod:`.sideview`: matplotlib side views used by ``dcdc scene show``.
 """
-from .sideview import animate, side_view, snapshot_strip  # noqa: F401
+from .figures import animate, snapshot_strip  # noqa: F401
+from .sideview import side_view  # noqa: F401

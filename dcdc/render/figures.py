@@ -13,6 +13,7 @@ pictures with the labels of :mod:`.overlay`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -98,6 +99,7 @@ class Figure:
 
     renderers: list[FrameRenderer]
     cut: tuple | None = None
+    labels: list[str] | None = None  # one title per trajectory (default: name · solver)
 
     @classmethod
     def build(cls, trajs, camera, cut_text=None, supersample=2, walls=True):
@@ -109,6 +111,9 @@ class Figure:
         lo, hi = scene_bounds(a)
         cut = parse_cut(cut_text, a.dim, lo, hi)
         return cls([FrameRenderer(t, camera, supersample, cut, walls) for t in trajs], cut)
+
+    def label(self, k: int) -> str:
+        return self.labels[k] if self.labels else describe(self.trajs[k])
 
     @property
     def trajs(self):
@@ -150,10 +155,10 @@ class Figure:
         if len(self.renderers) == 1:
             img = self.picture(0, f)
             w = img.shape[1]
-            return vstack(self.title(w, describe(self.trajs[0])), img,
+            return vstack(self.title(w, self.label(0)), img,
                           self.legend(w, f"t = {t:.2f} s"))
-        pics = [vstack(self.title(self.camera.width, describe(tr)), self.picture(k, f))
-                for k, tr in enumerate(self.trajs)]
+        pics = [vstack(self.title(self.camera.width, self.label(k)), self.picture(k, f))
+                for k in range(len(self.trajs))]
         row = hstack(pics)
         w = row.shape[1]
         caption = f"t = {t:.2f} s    mean nearest-particle distance {self.error_mm(f):.1f} mm"
@@ -171,6 +176,40 @@ class Figure:
                     head += f"   error {self.error_mm(f):.1f} mm"
                 cells.append(vstack(self.title(cw, head), self.picture(k, f)))
             row = hstack(cells)
-            rows.append(vstack(self.title(row.shape[1], describe(tr)), row))
+            rows.append(vstack(self.title(row.shape[1], self.label(k)), row))
         img = vstack(*rows)
         return vstack(img, self.legend(img.shape[1]))
+
+
+# ------------------------------------------------------- Python conveniences (dcdc demo)
+def snapshot_strip(traj, path, frames=None, n: int = 4, title: str | None = None,
+                   width: int = 360) -> Path:
+    """``n`` evenly spaced frames (or ``frames``) of ``traj`` side by side in one PNG,
+    written atomically."""
+    from PIL import Image
+
+    from .frames import default_camera
+    from .output import atomic_file
+    if frames is None:
+        frames = np.linspace(0, traj.n_frames - 1, n).round().astype(int).tolist()
+    fig = Figure.build([traj], default_camera(traj, width))
+    fig.labels = [title] if title else None
+    with atomic_file(path) as tmp:
+        Image.fromarray(fig.strip(list(frames))).save(tmp, format="PNG", optimize=True)
+    return Path(path)
+
+
+def animate(traj, path, every: int = 2, fps: int = 25, width: int = 480) -> Path:
+    """Every ``every``-th frame of ``traj`` to a GIF, an MP4 or a folder of PNGs (by the
+    name), with legend, time and scale bar."""
+    from .frames import default_camera
+    from .video import FrameWriter
+    fig = Figure.build([traj], default_camera(traj, width))
+    writer = FrameWriter(path, fps)
+    try:
+        for f in range(0, traj.n_frames, every):
+            writer.append(fig.frame(f))
+        return writer.close()
+    except BaseException:
+        writer.abort()
+        raise
