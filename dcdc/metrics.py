@@ -1,0 +1,252 @@
+"""Measurements of a particle state — arrays in, numbers out (DESIGN §6).
+
+The one definition of every physical and error metric the project reports, shared by the
+SPH validation (``dcdc validate-sph``), the demo and the evaluation of learned models
+(``dcdc evaluate``). Definitions with formulas: docs/evaluation.md.
+
+Conventions: positions ``x`` are [N, d] (y, index 1, is up unless ``up`` says otherwise),
+``phase`` is the int phase index [N]; a boolean ``active`` mask [N] (particles already
+born, see :class:`dcdc.particles.ParticleSystem`) restricts a metric where given. Lengths
+come back in the units they went in (metres); the evaluation converts to mm.
+
+This module imports numpy only; the neighbour search (:mod:`dcdc.neighbors`), scipy's
+k-d tree and POT (optimal transport) are imported inside the functions that need them.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "phase_heights", "phase_order_ok", "density_order_ok", "ideal_layer_purity",
+    "neighbour_purity", "phase_volumes", "volume_error", "density_error", "kinetic_energy",
+    "momentum", "position_error", "nearest_error", "sinkhorn_distance", "inside_walls",
+    "wall_penetrations",
+]
+
+
+def _select(mask, *arrays):
+    if mask is None:
+        return arrays
+    m = np.asarray(mask, dtype=bool)
+    return tuple(np.asarray(a)[m] for a in arrays)
+
+
+# ---------------------------------------------------------------------------- stratification
+def phase_heights(x, phase, n_phases: int | None = None, stat: str = "mean", up: int = 1,
+                  active=None) -> np.ndarray:
+    """Height of each phase [P]: the mean (centre of mass at equal particle volumes) or the
+    median of its particles' ``up`` coordinate; NaN for a phase without (active) particles.
+
+    The median says where the bulk of a phase sits; the mean (centre of mass) is dragged by
+    the few droplets a phase leaves trapped under the others (docs/evaluation.md)."""
+    if stat not in ("mean", "median"):
+        raise ValueError(f"stat must be 'mean' or 'median' (got {stat!r})")
+    x, phase = _select(active, np.asarray(x), np.asarray(phase))
+    P = int(n_phases if n_phases is not None else (phase.max() + 1 if len(phase) else 0))
+    out = np.full(P, np.nan)
+    f = np.mean if stat == "mean" else np.median
+    for k in range(P):
+        sel = phase == k
+        if sel.any():
+            out[k] = float(f(x[sel, up]))
+    return out
+
+
+def phase_order_ok(x, phase, order_bottom_to_top: Sequence[int], stat: str = "mean",
+                   up: int = 1, active=None) -> bool:
+    """True when the phases listed bottom to top have strictly increasing heights
+    (:func:`phase_heights`; the validation's "heavy below" check, mean heights)."""
+    h = phase_heights(x, phase, max(order_bottom_to_top, default=-1) + 1, stat, up, active)
+    ys = [h[k] for k in order_bottom_to_top]
+    return bool(all(a < b for a, b in zip(ys, ys[1:])))
+
+
+def density_order_ok(x, phase, phase_densities, stat: str = "median", up: int = 1,
+                     active=None) -> bool:
+    """Stable stratification: every phase lies strictly below every lighter phase.
+
+    Phases are ranked by rest density; empty phases are skipped and phases of equal
+    density are not compared. Default statistic: the median height (as the demo reports)."""
+    rho = np.asarray(phase_densities, dtype=np.float64)
+    h = phase_heights(x, phase, len(rho), stat, up, active)
+    ks = [k for k in np.argsort(-rho, kind="stable") if np.isfinite(h[k])]
+    for a, b in zip(ks, ks[1:]):  # a heavier than (or as heavy as) b
+        if rho[a] > rho[b] and not h[a] < h[b]:
+            return False
+    return True
+
+
+def ideal_layer_purity(x, phase, order_bottom_to_top: Sequence[int], floor: float,
+                       area: float, volume: float, spacing: float, up: int = 1) -> float:
+    """Fraction of all fluid particles lying in their phase's ideal layer (± one spacing).
+
+    The layers are stacked from ``floor`` in the given order with heights N_k·V / area
+    (N_k particles of phase k, ``volume`` V per particle, ``area`` the tank's floor area,
+    its width in 2-D); a particle of phase k counts when its height lies in
+    [base_k − spacing, base_k + N_k V/area + spacing]. Particles of phases not listed count
+    in the total but never as in place. Used by the SPH validation's closed-tank cases."""
+    x, phase = np.asarray(x), np.asarray(phase)
+    n = len(phase)
+    if n == 0:
+        return float("nan")
+    y = x[:, up]
+    ok = 0
+    base = float(floor)
+    for k in order_bottom_to_top:
+        m = phase == k
+        hgt = m.sum() * volume / area
+        lo, hi = base - spacing, base + hgt + spacing
+        ok += int(((y[m] >= lo) & (y[m] <= hi)).sum())
+        base += hgt
+    return ok / n
+
+
+def neighbour_purity(x, phase, radius: float, active=None) -> float:
+    """Interface sharpness: the mean over particles with at least one neighbour within
+    ``radius`` of the fraction of those neighbours that belong to the particle's own phase
+    (1 = perfectly separated phases; a well-mixed two-phase 1:1 state gives ≈ 0.5)."""
+    from .neighbors import radius_search
+
+    x, phase = _select(active, np.asarray(x, dtype=np.float64), np.asarray(phase))
+    if len(x) < 2:
+        return float("nan")
+    nb = radius_search(x, radius, exclude_self=True)
+    counts = nb.counts
+    same = (phase[nb.receivers()] == phase[nb.index]).astype(np.float64)
+    per = np.bincount(nb.receivers(), weights=same, minlength=len(x))
+    has = counts > 0
+    return float(np.mean(per[has] / counts[has])) if has.any() else float("nan")
+
+
+# ---------------------------------------------------------------------------- volume / density
+def phase_volumes(psi, phase, volume: float, n_phases: int | None = None) -> np.ndarray:
+    """Volume per phase V_k = Σ_{i∈k} V / max(ψ_i, 1) [P] from the number density ψ_i = ρ_i/ρ0_i.
+
+    Compression (ψ > 1) shrinks a phase; the kernel deficiency at a free surface (ψ < 1) is
+    not counted as expansion. Inactive particles carry ψ = NaN and are left out."""
+    psi, phase = np.asarray(psi, dtype=np.float64), np.asarray(phase)
+    P = int(n_phases if n_phases is not None else (phase.max() + 1 if len(phase) else 0))
+    ok = np.isfinite(psi)
+    vol = volume / np.maximum(psi[ok], 1.0)
+    return np.bincount(phase[ok], weights=vol, minlength=P)
+
+
+def volume_error(volumes, reference) -> np.ndarray:
+    """Relative volume change per phase (V_k − V_k,ref) / V_k,ref; NaN where V_k,ref = 0."""
+    v, r = np.asarray(volumes, dtype=np.float64), np.asarray(reference, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(r > 0, (v - r) / r, np.nan)
+
+
+def density_error(psi) -> float:
+    """Mean compression mean_i max(ψ_i − 1, 0) (the SPH solver's density error; NaN = inactive)."""
+    psi = np.asarray(psi, dtype=np.float64)
+    psi = psi[np.isfinite(psi)]
+    return float(np.maximum(psi - 1.0, 0.0).mean()) if len(psi) else float("nan")
+
+
+# ---------------------------------------------------------------------------- energy / momentum
+def kinetic_energy(v, mass) -> float:
+    """KE = ½ Σ_i m_i |v_i|² [J]."""
+    v, m = np.asarray(v, dtype=np.float64), np.asarray(mass, dtype=np.float64)
+    return 0.5 * float(m @ (v ** 2).sum(1)) if len(v) else 0.0
+
+
+def momentum(v, mass) -> np.ndarray:
+    """Linear momentum P = Σ_i m_i v_i [d] (kg m/s)."""
+    v, m = np.asarray(v, dtype=np.float64), np.asarray(mass, dtype=np.float64)
+    return m @ v if len(v) else np.zeros(v.shape[1] if v.ndim == 2 else 0)
+
+
+# ---------------------------------------------------------------------------- errors vs truth
+def position_error(pred, true, active=None) -> float:
+    """Mean per-particle Euclidean distance mean_i |x̂_i − x_i| between matched particles
+    (DeepLagrangianFluids' n+1 / n+2 error); NaN if a prediction is not finite."""
+    pred, true = _select(active, np.asarray(pred, np.float64), np.asarray(true, np.float64))
+    if len(pred) == 0:
+        return float("nan")
+    if not np.isfinite(pred).all():
+        return float("nan")
+    return float(np.linalg.norm(pred - true, axis=1).mean())
+
+
+def nearest_error(pred, true) -> float:
+    """Mean over true particles of the distance to the nearest predicted particle
+    (DeepLagrangianFluids' whole-sequence "gt2pred" error; identity-free)."""
+    from scipy.spatial import cKDTree
+
+    pred, true = np.asarray(pred, np.float64), np.asarray(true, np.float64)
+    if len(true) == 0 or len(pred) == 0 or not np.isfinite(pred).all():
+        return float("nan")
+    dist, _ = cKDTree(pred).query(true)
+    return float(dist.mean())
+
+
+def sinkhorn_distance(a, b, blur: float = 0.05, max_points: int = 1000, seed: int = 0,
+                      n_iter: int = 1000) -> float:
+    """Debiased entropic optimal-transport distance between two point clouds [length].
+
+    sqrt(max(S(a, b) − ½ S(a, a) − ½ S(b, b), 0)) with S the entropic OT cost
+    (uniform weights, squared Euclidean ground cost, regularisation ε = blur²), computed
+    with POT's stabilised Sinkhorn (Flamary et al. 2021). It is 0 for equal clouds and
+    close to the 2-Wasserstein distance when blur is small against the displacement.
+    Clouds larger than ``max_points`` are subsampled (fixed ``seed``)."""
+    import warnings
+
+    import ot
+
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if len(a) == 0 or len(b) == 0:
+        return float("nan")
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return float("nan")
+    rng = np.random.default_rng(seed)
+    if len(a) > max_points:
+        a = a[rng.choice(len(a), max_points, replace=False)]
+    if len(b) > max_points:
+        b = b[rng.choice(len(b), max_points, replace=False)]
+    reg = blur ** 2
+
+    def cost(p, q):
+        M = ot.dist(p, q)  # squared Euclidean
+        wp, wq = np.full(len(p), 1.0 / len(p)), np.full(len(q), 1.0 / len(q))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # non-convergence warnings; stopThr is loose
+            return float(ot.sinkhorn2(wp, wq, M, reg, method="sinkhorn_stabilized",
+                                      numItermax=n_iter, stopThr=1e-7))
+
+    s = cost(a, b) - 0.5 * cost(a, a) - 0.5 * cost(b, b)
+    return float(np.sqrt(max(s, 0.0)))
+
+
+# ---------------------------------------------------------------------------- walls
+def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
+    """Boolean mask [N]: fluid particles inside a wall — closer than a quarter spacing to a
+    wall particle, or behind one within a spacing, ``(x − x_b)·n_b < −spacing/4`` (normals
+    point into the fluid). Fluid on the lattice one spacing from a wall is outside."""
+    from .neighbors import radius_search
+
+    x = np.asarray(x, dtype=np.float64)
+    out = np.zeros(len(x), dtype=bool)
+    wall_x = np.asarray(wall_x, dtype=np.float64)
+    if len(x) == 0 or len(wall_x) == 0:
+        return out
+    finite = np.isfinite(x).all(1)
+    xf = x[finite]
+    nb = radius_search(xf, spacing * (1 + 1e-6), wall_x)
+    if nb.n_edges == 0:
+        return out
+    recv = nb.receivers()
+    off = xf[recv] - wall_x[nb.index]
+    dist = np.linalg.norm(off, axis=1)
+    side = np.einsum("ij,ij->i", off, np.asarray(wall_n, dtype=np.float64)[nb.index])
+    bad = np.unique(recv[(dist < 0.25 * spacing) | (side < -0.25 * spacing)])
+    out[np.flatnonzero(finite)[bad]] = True
+    return out
+
+
+def wall_penetrations(x, wall_x, wall_n, spacing: float) -> int:
+    """Number of fluid particles inside a wall (:func:`inside_walls`)."""
+    return int(inside_walls(x, wall_x, wall_n, spacing).sum())

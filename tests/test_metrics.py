@@ -1,0 +1,120 @@
+"""dcdc.metrics: every metric against a hand-computed value on tiny arrays."""
+import numpy as np
+import pytest
+
+from dcdc import metrics as M
+
+
+def _layers(n=10):
+    """Two phases on a 2-D lattice: phase 1 (heavy) in y < 0.5, phase 0 above."""
+    g = (np.arange(n) + 0.5) / n
+    x = np.array([(a, b) for a in g for b in g])
+    phase = (x[:, 1] < 0.5).astype(int)
+    return x, phase
+
+
+def test_phase_heights_mean_median_and_empty_phase():
+    x = np.array([[0, 0.0], [0, 1.0], [0, 5.0], [0, 2.0]])
+    phase = np.array([0, 0, 0, 1])
+    h = M.phase_heights(x, phase, 3)
+    assert h[0] == pytest.approx(2.0) and h[1] == pytest.approx(2.0) and np.isnan(h[2])
+    assert M.phase_heights(x, phase, 2, stat="median")[0] == pytest.approx(1.0)
+    active = np.array([True, True, False, True])
+    assert M.phase_heights(x, phase, 2, active=active)[0] == pytest.approx(0.5)
+
+
+def test_order_checks():
+    x, phase = _layers()
+    assert M.phase_order_ok(x, phase, [1, 0])
+    assert not M.phase_order_ok(x, phase, [0, 1])
+    rho = [1000.0, 3000.0]
+    assert M.density_order_ok(x, phase, rho)
+    assert not M.density_order_ok(x, phase, rho[::-1])
+    # equal densities are not compared; an empty phase is skipped
+    assert M.density_order_ok(x, phase, [1000.0, 1000.0])
+    assert M.density_order_ok(x, phase, [1000.0, 3000.0, 5000.0])
+
+
+def test_ideal_layer_purity_matches_hand_count():
+    # 4 particles of phase 1 should fill [0, 0.4) and 4 of phase 0 [0.4, 0.8) (area 1, V 0.1)
+    y = np.array([0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 1.5])
+    phase = np.array([1, 1, 1, 1, 0, 0, 0, 0])
+    x = np.c_[np.zeros(8), y]
+    p = M.ideal_layer_purity(x, phase, [1, 0], floor=0.0, area=1.0, volume=0.1, spacing=0.05)
+    assert p == pytest.approx(7 / 8)
+    # reversed order: phase 0 expected in [0, 0.4] ± 0.05, phase 1 in [0.4, 0.8] ± 0.05
+    p2 = M.ideal_layer_purity(x, phase, [0, 1], 0.0, 1.0, 0.1, 0.05)
+    assert p2 == pytest.approx(1 / 8)  # only the phase-1 particle at 0.35 (>= 0.35)
+
+
+def test_ideal_layer_purity_same_as_sph_validation():
+    """The validation's definition (dcdc.sph.cases.layer_purity) gives the same number."""
+    cases = pytest.importorskip("dcdc.sph.cases")
+    from dcdc.particles import ParticleSystem, Phase
+    rng = np.random.default_rng(1)
+    x = rng.random((200, 2))
+    phase = (rng.random(200) < 0.4).astype(int)
+    sy = ParticleSystem(2, 0.025, x, np.zeros_like(x), phase,
+                        [Phase("a", 1000.0), Phase("b", 2000.0)], np.zeros((0, 2)),
+                        np.zeros((0, 2)), (0, -9.81), ((-1, -1), (2, 2)))
+    ours = M.ideal_layer_purity(x, phase, [1, 0], 0.0, 1.0, 0.0025, sy.spacing)
+    assert ours == pytest.approx(cases.layer_purity(sy, [1, 0], 0.0, 1.0, 0.0025))
+
+
+def test_neighbour_purity():
+    x, phase = _layers(10)
+    p = M.neighbour_purity(x, phase, radius=0.11)  # 4-neighbourhood on the 0.1 lattice
+    # 100 particles; the 20 next to the interface have 1 foreign neighbour of 4 (of 3 at
+    # the left/right border), the other 80 none
+    assert p == pytest.approx((80 + 16 * 3 / 4 + 4 * 2 / 3) / 100)
+    assert M.neighbour_purity(x, np.zeros(len(x), int), 0.11) == pytest.approx(1.0)
+    checker = ((np.round(x[:, 0] * 10 - 0.5) + np.round(x[:, 1] * 10 - 0.5)) % 2).astype(int)
+    assert M.neighbour_purity(x, checker, 0.11) == pytest.approx(0.0)
+
+
+def test_phase_volumes_and_errors():
+    psi = np.array([1.0, 2.0, 0.5, np.nan])
+    phase = np.array([0, 0, 1, 1])
+    v = M.phase_volumes(psi, phase, 0.1, 3)
+    assert v == pytest.approx([0.1 + 0.05, 0.1, 0.0])
+    err = M.volume_error(v, [0.2, 0.1, 0.0])
+    assert err[0] == pytest.approx(-0.25) and err[1] == pytest.approx(0.0) and np.isnan(err[2])
+    assert M.density_error(psi) == pytest.approx((0 + 1 + 0) / 3)
+
+
+def test_energy_and_momentum():
+    v = np.array([[1.0, 0.0], [0.0, -2.0]])
+    m = np.array([2.0, 1.0])
+    assert M.kinetic_energy(v, m) == pytest.approx(0.5 * (2 * 1 + 1 * 4))
+    assert M.momentum(v, m) == pytest.approx([2.0, -2.0])
+
+
+def test_position_and_nearest_error():
+    true = np.array([[0.0, 0.0], [1.0, 0.0]])
+    pred = true + np.array([[0.0, 0.3], [0.4, 0.0]])
+    assert M.position_error(pred, true) == pytest.approx(0.35)
+    # identity-free: swapping predicted particles changes nothing
+    assert M.nearest_error(pred[::-1], true) == pytest.approx(0.35)
+    assert M.nearest_error(true[::-1], true) == pytest.approx(0.0)
+    assert np.isnan(M.position_error(np.full((2, 2), np.nan), true))
+
+
+def test_sinkhorn_distance():
+    rng = np.random.default_rng(0)
+    a = rng.random((150, 2))
+    assert M.sinkhorn_distance(a, a) == pytest.approx(0.0, abs=1e-6)
+    d = M.sinkhorn_distance(a, a + [0.1, 0.0])
+    assert d == pytest.approx(0.1, rel=0.05)  # a shift is transported by its length
+    assert M.sinkhorn_distance(a, a + [0.3, 0.0]) > 2.5 * d
+
+
+def test_wall_penetrations():
+    # a floor of wall particles at y = 0 (normals up) and 2 layers below
+    xs = np.arange(-10, 11) * 0.05
+    wall = np.array([(a, -k * 0.05) for a in xs for k in range(3)])
+    normals = np.tile([0.0, 1.0], (len(wall), 1))
+    fluid = np.array([[0.0, 0.05], [0.1, 0.2], [0.02, -0.03], [0.2, -0.07], [0.0, 0.005]])
+    mask = M.inside_walls(fluid, wall, normals, spacing=0.05)
+    assert mask.tolist() == [False, False, True, True, True]
+    assert M.wall_penetrations(fluid, wall, normals, 0.05) == 3
+    assert M.wall_penetrations(fluid, wall[:0], normals[:0], 0.05) == 0
