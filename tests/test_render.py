@@ -74,6 +74,22 @@ def test_splat_nearest_sphere_wins_and_shading_follows_the_light():
     assert zbuf[20, 20] == pytest.approx(3.0 - 0.1, abs=1e-3)
 
 
+def test_parallel_bands_draw_the_same_picture():
+    rng = np.random.default_rng(1)
+    n = 300
+    args = (rng.uniform(0, 64, n), rng.uniform(0, 48, n), rng.uniform(1, 2, n),
+            rng.uniform(1, 6, n), 0.05)
+    out = []
+    for bands in (1, 3, 7):
+        zbuf, ids = np.full((48, 64), np.inf), np.full((48, 64), -1, np.int32)
+        splat(*args, zbuf, ids, bands=bands)
+        out.append((zbuf, ids))
+    for zbuf, ids in out[1:]:
+        np.testing.assert_array_equal(zbuf, out[0][0])
+        np.testing.assert_array_equal(ids, out[0][1])
+    assert (out[0][1] >= 0).mean() > 0.5
+
+
 def test_2d_frame_shows_each_particle_in_its_phase_colour(traj2d):
     cam = default_camera(traj2d, 300)
     r = FrameRenderer(traj2d, cam, supersample=1)

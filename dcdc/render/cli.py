@@ -26,6 +26,14 @@ def _fps(traj, stride, fps):
     return float(min(max(round(1.0 / (traj.frame_dt * stride)), 1), 50))  # real time
 
 
+def _save_png(img, path, palette=None):
+    from PIL import Image
+    im = Image.fromarray(img)
+    if palette:
+        im = im.quantize(colors=palette, method=Image.Quantize.MEDIANCUT)
+    im.save(path, format="PNG", optimize=True)
+
+
 @click.command("render")
 @click.argument("traj_path", metavar="TRAJ", required=False, type=click.Path())
 @click.option("--out", "-o", "out", required=True, type=click.Path(),
@@ -51,11 +59,13 @@ def _fps(traj, stride, fps):
               help="3-D cut-away: drop everything with x[AXIS] > VALUE (default the centre)")
 @click.option("--no-walls", is_flag=True, help="do not draw the walls")
 @click.option("--supersample", type=int, default=2, show_default=True, help="anti-aliasing factor")
+@click.option("--palette", type=click.IntRange(2, 256), default=None, metavar="N",
+              help="PNG pictures with an adaptive palette of N colours (smaller files)")
 @click.option("--overwrite", is_flag=True, help="replace an existing output")
 @click.option("--no-progress", is_flag=True)
 def render_command(traj_path, out, name, compare, strip, frames, stride, fps, width, height,
-                   azimuth, elevation, distance, zoom, cut, no_walls, supersample, overwrite,
-                   no_progress):
+                   azimuth, elevation, distance, zoom, cut, no_walls, supersample, palette,
+                   overwrite, no_progress):
     """Render TRAJ as an animation, a strip of time points, or compared with another."""
     from .figures import Figure, open_trajectory, select_frames, strip_frames
     from .frames import default_camera
@@ -86,9 +96,8 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
         sel = strip_frames(trajs[0], strip)
         if max(sel) >= n_common:
             raise DcdcError(f"--strip: {compare[1]} has only {n_common} frames")
-        from PIL import Image
         with atomic_file(out) as tmp:
-            Image.fromarray(fig.strip(sel)).save(tmp, format="PNG", optimize=True)
+            _save_png(fig.strip(sel), tmp, palette)
         click.echo(f"wrote {out} ({len(sel)} time points)")
         return
     sel = [f for f in select_frames(trajs[0], frames, stride) if f < n_common]
@@ -96,9 +105,8 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
         if len(sel) != 1:
             raise DcdcError(f"{out}: a .png holds one picture; select one frame (--frames N) "
                             f"or use --strip, a .mp4/.gif or a folder name")
-        from PIL import Image
         with atomic_file(out) as tmp:
-            Image.fromarray(fig.frame(sel[0])).save(tmp, format="PNG")
+            _save_png(fig.frame(sel[0]), tmp, palette)
         click.echo(f"wrote {out}")
         return
     writer = FrameWriter(out, _fps(trajs[0], stride, fps))

@@ -14,7 +14,7 @@ rejected by one comparison. Cost: O(N r²) comparisons plus O(pixels) shading.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import get_num_threads, njit, prange
 
 # light direction in camera space (x right, y up, z towards the viewer), normalised
 _L = np.array([-0.45, 0.6, 0.66])
@@ -23,37 +23,42 @@ MATERIAL = np.array([0.38, 0.62, 0.28])  # ambient, diffuse, specular (shininess
 MIN_RADIUS_PX = 0.75  # far or tiny particles stay visible
 
 
-@njit(cache=True, nogil=True)
-def splat_ids(sx, sy, depth, rad_px, rad_m, zbuf, ids):
+@njit(cache=True, nogil=True, parallel=True)
+def splat_ids(sx, sy, depth, rad_px, rad_m, zbuf, ids, bands):
     """Write the index of the nearest sphere surface into ``ids`` [H, W] (``zbuf``: its
     depth [m]; both updated in place). Spheres centred at pixel (sx, sy) with depth
     ``depth``, screen radius ``rad_px`` (at least :data:`MIN_RADIUS_PX`), world radius
-    ``rad_m``; pixel centres at +0.5."""
+    ``rad_m``; pixel centres at +0.5. The image is split into ``bands`` horizontal bands
+    drawn in parallel, each by one thread visiting the spheres in the given order, so the
+    result does not depend on ``bands``."""
     H, W = zbuf.shape
-    for i in range(sx.shape[0]):
-        r = max(rad_px[i], MIN_RADIUS_PX)
-        cx, cy = sx[i], sy[i]
-        x0 = max(int(np.floor(cx - r)), 0)
-        x1 = min(int(np.ceil(cx + r)), W - 1)
-        y0 = max(int(np.floor(cy - r)), 0)
-        y1 = min(int(np.ceil(cy + r)), H - 1)
-        if x0 > x1 or y0 > y1:
-            continue
-        inv = 1.0 / r
-        front = depth[i] - rad_m[i]  # the sphere's nearest point
-        for py in range(y0, y1 + 1):
-            dy = (py + 0.5 - cy) * inv
-            for px in range(x0, x1 + 1):
-                if zbuf[py, px] <= front:  # hidden at this pixel whatever its offset
-                    continue
-                dx = (px + 0.5 - cx) * inv
-                q = dx * dx + dy * dy
-                if q >= 1.0:
-                    continue
-                d = depth[i] - rad_m[i] * np.sqrt(1.0 - q)
-                if d < zbuf[py, px]:
-                    zbuf[py, px] = d
-                    ids[py, px] = i
+    for b in prange(bands):
+        r0 = b * H // bands
+        r1 = (b + 1) * H // bands - 1
+        for i in range(sx.shape[0]):
+            r = max(rad_px[i], MIN_RADIUS_PX)
+            cx, cy = sx[i], sy[i]
+            x0 = max(int(np.floor(cx - r)), 0)
+            x1 = min(int(np.ceil(cx + r)), W - 1)
+            y0 = max(int(np.floor(cy - r)), r0)
+            y1 = min(int(np.ceil(cy + r)), r1)
+            if x0 > x1 or y0 > y1:
+                continue
+            inv = 1.0 / r
+            front = depth[i] - rad_m[i]  # the sphere's nearest point
+            for py in range(y0, y1 + 1):
+                dy = (py + 0.5 - cy) * inv
+                for px in range(x0, x1 + 1):
+                    if zbuf[py, px] <= front:  # hidden at this pixel whatever its offset
+                        continue
+                    dx = (px + 0.5 - cx) * inv
+                    q = dx * dx + dy * dy
+                    if q >= 1.0:
+                        continue
+                    d = depth[i] - rad_m[i] * np.sqrt(1.0 - q)
+                    if d < zbuf[py, px]:
+                        zbuf[py, px] = d
+                        ids[py, px] = i
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -89,7 +94,7 @@ def shade_layer(ids, sx, sy, rad_px, colors, light, material, rgb):
                     rgb[py, px, c] = min(colors[i, c] * diff + spec, 1.0)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def resolve(zbuf, ids, sx, sy, rad_px, colors, light, material, wall_z, wall_rgb, wall_alpha,
             walls_over_fluid, background, ss, out):
     """Shade, composite and box-filter a supersampled frame into ``out`` (uint8 [H, W, 3]).
@@ -97,12 +102,11 @@ def resolve(zbuf, ids, sx, sy, rad_px, colors, light, material, wall_z, wall_rgb
     A sample shows its fluid sphere, or the background where there is none; a wall surface
     nearer than that (``wall_z`` < ``zbuf``) veils it with opacity ``wall_alpha``, when
     ``walls_over_fluid`` (3-D) also over fluid, else (2-D, fluid on top) only the
-    background. ``ss`` x ``ss`` samples are averaged per output pixel."""
+    background. ``ss`` x ``ss`` samples are averaged per output pixel; rows in parallel."""
     H, W = out.shape[0], out.shape[1]
     norm = 1.0 / (ss * ss)
     has_walls = wall_z.shape[0] > 0
-    col = np.empty(3)
-    for y in range(H):
+    for y in prange(H):
         for x in range(W):
             acc0 = 0.0
             acc1 = 0.0
@@ -114,24 +118,26 @@ def resolve(zbuf, ids, sx, sy, rad_px, colors, light, material, wall_z, wall_rgb
                     fluid = k >= 0
                     if fluid:
                         diff, spec = _lighting(px, py, k, sx, sy, rad_px, light, material)
-                        for c in range(3):
-                            col[c] = min(colors[k, c] * diff + spec, 1.0)
+                        c0 = min(colors[k, 0] * diff + spec, 1.0)
+                        c1 = min(colors[k, 1] * diff + spec, 1.0)
+                        c2 = min(colors[k, 2] * diff + spec, 1.0)
                     else:
-                        for c in range(3):
-                            col[c] = background[c]
+                        c0, c1, c2 = background[0], background[1], background[2]
                     if has_walls and wall_z[py, px] < zbuf[py, px] and \
                             (walls_over_fluid or not fluid):
-                        for c in range(3):
-                            col[c] = (1 - wall_alpha) * col[c] + wall_alpha * wall_rgb[py, px, c]
-                    acc0 += col[0]
-                    acc1 += col[1]
-                    acc2 += col[2]
+                        a = wall_alpha
+                        c0 = (1 - a) * c0 + a * wall_rgb[py, px, 0]
+                        c1 = (1 - a) * c1 + a * wall_rgb[py, px, 1]
+                        c2 = (1 - a) * c2 + a * wall_rgb[py, px, 2]
+                    acc0 += c0
+                    acc1 += c1
+                    acc2 += c2
             out[y, x, 0] = np.uint8(min(max(acc0 * norm, 0.0), 1.0) * 255 + 0.5)
             out[y, x, 1] = np.uint8(min(max(acc1 * norm, 0.0), 1.0) * 255 + 0.5)
             out[y, x, 2] = np.uint8(min(max(acc2 * norm, 0.0), 1.0) * 255 + 0.5)
 
 
-def splat(sx, sy, depth, rad_px, rad_m, zbuf, ids):
+def splat(sx, sy, depth, rad_px, rad_m, zbuf, ids, bands: int | None = None):
     """:func:`splat_ids` of N spheres, nearest first; returns the per-sphere arrays in the
     order that ``ids`` refers to: (sx, sy, rad_px, order)."""
     n = len(sx)
@@ -140,5 +146,5 @@ def splat(sx, sy, depth, rad_px, rad_m, zbuf, ids):
     pick = lambda a: np.ascontiguousarray(np.broadcast_to(np.asarray(a, f), (n,))[order])
     sx, sy, rad_px = pick(sx), pick(sy), pick(rad_px)
     if n:
-        splat_ids(sx, sy, pick(depth), rad_px, pick(rad_m), zbuf, ids)
+        splat_ids(sx, sy, pick(depth), rad_px, pick(rad_m), zbuf, ids, bands or get_num_threads())
     return sx, sy, rad_px, order
