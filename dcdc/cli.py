@@ -29,6 +29,7 @@ BENCHMARKS = {
     "sph": "dcdc.sph.benchmark:benchmark_command",
     "cconv": "dcdc.model.benchmark:cconv_command",
     "model": "dcdc.model.benchmark:model_command",
+    "train": "dcdc.train.benchmark:train_benchmark_command",
     "render": "dcdc.render.benchmark:benchmark_command",
 }
 

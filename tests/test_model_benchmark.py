@@ -40,3 +40,18 @@ def test_model_benchmark_training_step(tmp_path):
                                              "--repeat", "1", "--train"])
     assert res.exit_code == 0, res.output
     assert "training step" in res.output
+
+
+def test_train_benchmark_cli_writes_json(tmp_path):
+    from dcdc.train.benchmark import train_benchmark_command
+
+    out = tmp_path / "train.json"
+    res = CliRunner().invoke(train_benchmark_command, ["--quick", "--repeat", "1",
+                                                       "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    assert [(r["network"], r["dim"]) for r in data["rows"]] == [
+        ("dcdc", 2), ("cconv", 2), ("dcdc", 3), ("cconv", 3)]
+    assert all(r["particle_steps_per_s"] > 0 and r["unroll"] == 2 for r in data["rows"])
+    assert set(data["ratios"]) == {"2d_dcdc_over_cconv", "2d_dcdc_over_cconv_cpu",
+                                   "3d_dcdc_over_cconv", "3d_dcdc_over_cconv_cpu"}
