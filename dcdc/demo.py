@@ -86,7 +86,9 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         traj = Dataset(tmp)[job.name]
         names = [f"{job.name}.h5", f"{job.name}.png", f"{job.name}.gif", f"{job.name}_final.ply"]
         snapshot_strip(traj, tmp / names[1], title=f"{job.name}: dcdc SPH")
+        interrupt.check()
         animate(traj, tmp / names[2])
+        interrupt.check()
         write_points(tmp / names[3], traj.position[-1],
                      {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
         rows0, rows1 = stratification(traj, 0), stratification(traj, -1)

@@ -247,8 +247,8 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         times = fdt * np.arange(T)
         substeps = 0
         for k in range(1, T):
-            with interrupt.deferred():  # a signal stops the run after this step
-                st = sim.advance(fdt) or getattr(sim, "stats", {})
+            st = sim.advance(fdt) or getattr(sim, "stats", {})
+            interrupt.check()  # Ctrl-C / SIGTERM stop the run here, between frames
             substeps += int(st.get("substeps", 0)) if isinstance(st, dict) else 0
             xs[k], vs[k] = sim.system.x, sim.system.v
             if progress:
@@ -346,6 +346,7 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
         with interrupt.handling():
             if workers == 1:
                 for j in todo:
+                    interrupt.check()
                     finished(run_job(j, out_dir, simulator, bar.update, version))
             else:
                 from .pool import run_pool

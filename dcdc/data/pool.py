@@ -13,7 +13,7 @@ queued jobs and then idle forever), and Ctrl-C there still runs every queued job
   at most a hidden temporary file that readers ignore and the next run deletes.
 - **Ctrl-C / SIGTERM of the parent.** Workers ignore SIGINT (the terminal sends it to the
   whole process group; the parent decides). The parent stops handing out jobs, sends each
-  busy worker SIGTERM (deferred to the end of the solver step, see
+  busy worker SIGTERM (acted on at the end of its current frame, see
   :mod:`dcdc.data.interrupt`), waits, kills any worker still running after
   ``GRACE_S`` and deletes the temporary files of the jobs that were in flight: finished
   trajectories are complete files, in-flight ones are discarded.
@@ -56,25 +56,30 @@ def worker_main(conn, parent_pid: int, threads: int, out_dir: str, simulator: st
     from ..errors import DcdcError, Interrupted
     from . import interrupt
     from .generate import run_job, set_threads
-    with interrupt.handling((signal.SIGTERM,)):
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
-        set_threads(threads)
-        while True:
-            try:
-                job = conn.recv()
-            except (EOFError, OSError):
-                return
-            if job is None:
-                return
-            try:
-                rec = run_job(job, out_dir, simulator, lambda n: conn.send(("progress", n)), version)
-                conn.send(("done", rec))
-            except Interrupted:
-                return
-            except DcdcError as e:
-                conn.send(("user_error", str(e)))
-            except BaseException:
-                conn.send(("crash", traceback.format_exc()))
+    try:
+        with interrupt.handling((signal.SIGTERM,)):
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+            set_threads(threads)
+            while True:
+                try:
+                    job = conn.recv()
+                except (EOFError, OSError):
+                    return
+                if job is None:
+                    return
+                try:
+                    rec = run_job(job, out_dir, simulator, lambda n: conn.send(("progress", n)), version)
+                    conn.send(("done", rec))
+                except Interrupted:
+                    return
+                except DcdcError as e:
+                    conn.send(("user_error", str(e)))
+                except (BrokenPipeError, EOFError):  # the parent is gone
+                    return
+                except BaseException:
+                    conn.send(("crash", traceback.format_exc()))
+    except (Interrupted, BrokenPipeError):  # SIGTERM from the parent, or the parent is gone
+        return
 
 
 def run_pool(jobs, workers: int, threads: int, out_dir, simulator: str, version,
@@ -86,6 +91,7 @@ def run_pool(jobs, workers: int, threads: int, out_dir, simulator: str, version,
     from multiprocessing.connection import wait
 
     from ..errors import DcdcError
+    from . import interrupt
     ctx = mp.get_context("spawn")
     todo = list(jobs)
     procs = []  # (process, connection)
@@ -115,8 +121,9 @@ def run_pool(jobs, workers: int, threads: int, out_dir, simulator: str, version,
         for p, conn in procs:
             give(p, conn)
         while busy:
+            interrupt.check()  # Ctrl-C / SIGTERM of this process: stop handing out jobs
             sentinels = {p.sentinel: conn for conn, (p, _) in busy.items()}
-            for r in wait(list(busy) + list(sentinels)):
+            for r in wait(list(busy) + list(sentinels), timeout=WATCH_S):
                 conn = sentinels.get(r, r)
                 if conn not in busy:
                     continue
@@ -149,15 +156,14 @@ def _stop(procs, busy, out_dir) -> None:
     from pathlib import Path
 
     from .outputs import TMP_MARK
-    for p, conn in procs:
-        if conn not in busy:
-            try:
-                conn.send(None)
-            except (OSError, ValueError):
-                pass
+    for p, conn in procs:  # idle ones exit; one that just finished its job too
+        try:
+            conn.send(None)
+        except (OSError, ValueError):
+            pass
     for p, job in busy.values():
         if p.is_alive():
-            p.terminate()  # SIGTERM: the worker stops at the end of its solver step
+            p.terminate()  # SIGTERM: the worker stops at the end of its current frame
     deadline = time.time() + GRACE_S
     for p, _ in procs:
         p.join(max(0.0, deadline - time.time()))
