@@ -4,7 +4,7 @@ The page (``viewer.html``, plain WebGL 1 written for dcdc, no library, no networ
 the data inlined as one JSON object:
 
 * fluid positions of the kept frames quantised to uint16 within the scene's box
-  (error <= box size / 131 070, i.e. < 0.02 mm per metre of box), base64;
+  (error <= box size / 131 070, under 0.01 mm per metre of box), base64;
 * phase index (uint8) and emission time (float32) per particle, phase names, densities and
   colours, frame times;
 * wall positions (uint16) and normals (int8), base64: the page draws a wall point only
