@@ -10,9 +10,10 @@ published code trains with U = 2 and step weights ½, ½)::
 * nᵢᵏ is particle i's number of fluid neighbours within the CConv radius at step k (the
   network's own search at x*, self excluded). Interior particles are pinned by their
   neighbours; the weight shifts the loss to the free surface and splashes where errors
-  grow (3-D interior ≈ 48 neighbours at R = 4.5 r: weight 0.30; a lone droplet: 1). In
-  2-D the interior holds ≈ 16, so examples/train_2d.toml sets n₀ = 13.3 for the same
-  interior/surface contrast.
+  grow. In 3-D the interior holds ≈ 48 (continuum estimate, 56 on a cubic lattice at
+  spacing 2r): weight ≈ 0.3, a lone droplet 1. In 2-D it holds only ≈ 15 (90th percentile
+  in data/sample, median 13), so examples/train_2d.toml sets n₀ = 13.3 for the same
+  interior weight exp(−15/13.3) ≈ 0.32.
 * γ = 0.5 < 1 makes the loss robust: large errors (a few particles that went astray)
   grow the loss only like √d, so they do not dominate the gradient, while small errors
   keep a steep gradient ∝ d^(−1/2) that drives the accurate steps further down.
