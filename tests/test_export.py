@@ -139,3 +139,56 @@ def test_export_refuses_existing_and_unknown(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and msg in err[0]
     assert (out / "keep.txt").exists()
+
+
+MESH_SCENE = """name = "meshy"
+dim = 3
+[domain]
+min = [-1.0, -1.0, -1.0]
+max = [1.0, 1.0, 1.0]
+[phases.a]
+density = 1000.0
+[walls.rock]
+shape = "mesh"
+file = "asset:rock.obj"
+scale = 0.5
+translate = [0.1, 0.2, 0.0]
+[[fluid]]
+phase = "a"
+shape = "box"
+min = [-0.5, 0.5, -0.5]
+max = [0.5, 0.9, 0.5]
+"""
+
+
+def test_mesh_walls_exported_as_surfaces(tmp_path):
+    """A scene with a mesh wall: the export holds the mesh as simulated (file, scale and
+    translation of the stored scene, times the trajectory's resolution)."""
+    meshio = pytest.importorskip("meshio")
+    from importlib import resources
+
+    from dcdc.geometry.shapes import load_mesh
+    from dcdc.render.benchmark import block_trajectory
+    from dcdc.render.export import export_trajectory
+
+    path = block_trajectory(tmp_path / "m.h5", 3, 60, frames=2,
+                            attrs={"scene_toml": MESH_SCENE, "resolution": 2.0, "source": "meshy"})
+    traj = open_trajectory(path)
+    want = load_mesh(resources.files("dcdc").joinpath("assets", "rock.obj"), 1.0, [0.2, 0.4, 0.0])
+    export_trajectory(traj, "vtk", tmp_path / "v")
+    m = meshio.read(tmp_path / "v" / "walls_mesh_rock.vtu")
+    np.testing.assert_allclose(m.points, want.vertices, rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(m.cells_dict["triangle"], want.faces)
+    parts = {d.get("part") for d in ET.parse(tmp_path / "v" / "block.pvd").getroot().iter("DataSet")
+             if d.get("file") == "walls_mesh_rock.vtu"}
+    assert parts == {"2"}
+    export_trajectory(traj, "ply", tmp_path / "p")
+    m = meshio.read(tmp_path / "p" / "walls_mesh_rock.ply")
+    np.testing.assert_array_equal(m.cells_dict["triangle"], want.faces)
+    # a mesh that cannot be found is reported, the rest is exported
+    notes = []
+    lost = block_trajectory(tmp_path / "l.h5", 3, 60, frames=1,
+                            attrs={"scene_toml": MESH_SCENE.replace("asset:rock.obj", "gone.obj")})
+    export_trajectory(open_trajectory(lost), "ply", tmp_path / "q", warn=notes.append)
+    assert len(notes) == 1 and "gone.obj not found" in notes[0]
+    assert (tmp_path / "q" / "walls.ply").exists()

@@ -41,8 +41,10 @@ def _box_walls(lo, hi, spacing, dim):
 
 
 def block_trajectory(path, dim: int = 3, n: int = 10_000, frames: int = 10,
-                     radius: float = 0.025, frame_dt: float = 0.02, name: str = "block") -> Path:
-    """Write a synthetic trajectory of ``n`` particles (see the module docstring)."""
+                     radius: float = 0.025, frame_dt: float = 0.02, name: str = "block",
+                     attrs: dict | None = None) -> Path:
+    """Write a synthetic trajectory of ``n`` particles (see the module docstring);
+    ``attrs`` add to or replace its metadata (e.g. a ``scene_toml``)."""
     from ..data.dataset import write_trajectory
     s = 2 * radius
     side = int(np.ceil(n ** (1 / dim)))
@@ -65,7 +67,7 @@ def block_trajectory(path, dim: int = 3, n: int = 10_000, frames: int = 10,
     system = ParticleSystem(dim, radius, x0, np.zeros_like(x0), phase, PHASES, wall_x, wall_n,
                             gravity, (np.full(dim, -s), hi_box + s), name=name)
     attrs = {"frame_dt": frame_dt, "scene": name, "scene_dim": dim, "solver": "synthetic",
-             "split": "", "seed": 0, "resolution": 1.0}
+             "split": "", "seed": 0, "resolution": 1.0, **(attrs or {})}
     return write_trajectory(Path(path), name, xs, vs, t, system, attrs)
 
 

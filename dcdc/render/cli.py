@@ -142,7 +142,8 @@ def export_command(traj_path, fmt, out, name, frames, stride, overwrite, no_prog
     traj = open_trajectory(traj_path, name)
     sel = select_frames(traj, frames, stride)
     with atomic_dir(out) as tmp, _progress(len(sel), not no_progress, "export") as bar:
-        files = export_trajectory(traj, fmt, tmp, sel, bar.update)
+        files = export_trajectory(traj, fmt, tmp, sel, bar.update,
+                                  warn=lambda text: click.echo(f"note: {text}", err=True))
     click.echo(f"wrote {len(files)} files to {out}")
 
 

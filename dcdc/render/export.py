@@ -51,10 +51,11 @@ def _atomic_write(path: str | os.PathLike, data: bytes) -> Path:
 
 
 def write_ply(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None,
-              colors: np.ndarray | None = None) -> Path:
+              colors: np.ndarray | None = None, triangles: np.ndarray | None = None) -> Path:
     """Binary little-endian PLY vertex list (x, y, z + one float property per scalar and
     ``name_x/_y/_z`` per vector field, then ``red green blue`` uchar when ``colors`` [N, 3]
-    in [0, 1] are given); Blender and ParaView read it."""
+    in [0, 1] are given), and a face list when ``triangles`` [F, 3] are given; Blender and
+    ParaView read it."""
     x3, cols = _columns(x, fields or {})
     names, arrays = ["x", "y", "z"], [x3]
     for name, c in cols.items():
@@ -81,8 +82,16 @@ def write_ply(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None,
         for k, c in enumerate(("red", "green", "blue")):
             table[c] = rgb[:, k]
     header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(x3)}"]
-    header += props + ["end_header"]
-    return _atomic_write(path, ("\n".join(header) + "\n").encode() + table.tobytes())
+    header += props
+    faces = b""
+    if triangles is not None:
+        tri = np.asarray(triangles).reshape(-1, 3)
+        rows = np.empty(len(tri), [("n", "u1"), ("v", "<i4", (3,))])
+        rows["n"], rows["v"] = 3, tri
+        header += [f"element face {len(tri)}", "property list uchar int vertex_indices"]
+        faces = rows.tobytes()
+    header.append("end_header")
+    return _atomic_write(path, ("\n".join(header) + "\n").encode() + table.tobytes() + faces)
 
 
 def write_vtk(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
@@ -117,12 +126,19 @@ def _data_array(name: str | None, a: np.ndarray, components: int = 1) -> str:
             f'format="binary">{_b64_block(a)}</DataArray>')
 
 
-def write_vtu(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None) -> Path:
-    """XML UnstructuredGrid (``.vtu``), one vertex cell per particle, point data float32
-    (vectors with 3 components; integer fields such as the phase as Int32), inline base64
-    binary arrays with UInt64 headers."""
+def write_vtu(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None,
+              triangles: np.ndarray | None = None) -> Path:
+    """XML UnstructuredGrid (``.vtu``): one vertex cell per point, or the ``triangles``
+    [F, 3] (point indices) of a surface; point data float32 (vectors with 3 components;
+    integer fields such as the phase as Int32), inline base64 binary arrays with UInt64
+    headers."""
     x3, cols = _columns(x, fields or {})
     n = len(x3)
+    if triangles is None:
+        conn, size, vtk_type = np.arange(n), 1, 1             # VTK_VERTEX
+    else:
+        conn, size, vtk_type = np.asarray(triangles).reshape(-1), 3, 5  # VTK_TRIANGLE
+    cells = len(conn) // size
     ints = {k for k, f in (fields or {}).items() if np.asarray(f).dtype.kind in "iub"}
     point_data = []
     for name, c in cols.items():
@@ -133,12 +149,12 @@ def write_vtu(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None) 
     xml = ['<?xml version="1.0"?>',
            '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
            'header_type="UInt64">', "<UnstructuredGrid>",
-           f'<Piece NumberOfPoints="{n}" NumberOfCells="{n}">',
+           f'<Piece NumberOfPoints="{n}" NumberOfCells="{cells}">',
            "<PointData>", *point_data, "</PointData>",
            "<Points>", _data_array(None, x3.astype("<f4"), 3), "</Points>",
-           "<Cells>", _data_array("connectivity", np.arange(n, dtype="<i8")),
-           _data_array("offsets", np.arange(1, n + 1, dtype="<i8")),
-           _data_array("types", np.full(n, 1, "u1")),  # VTK_VERTEX
+           "<Cells>", _data_array("connectivity", conn.astype("<i8")),
+           _data_array("offsets", np.arange(1, cells + 1, dtype="<i8") * size),
+           _data_array("types", np.full(cells, vtk_type, "u1")),
            "</Cells>", "</Piece>", "</UnstructuredGrid>", "</VTKFile>", ""]
     return _atomic_write(path, "\n".join(xml).encode())
 
@@ -166,12 +182,16 @@ def write_points(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = Non
 EXPORT_FORMATS = {"ply": ".ply", "vtk": ".vtu"}
 
 
-def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None) -> list[Path]:
+def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None,
+                      warn=None) -> list[Path]:
     """Every frame in ``frames`` (default: all) of ``traj`` into the directory ``out_dir``:
     ``frame_NNNNN.ply`` or ``.vtu`` with the particles present at that time (fields
-    ``id``, ``phase``, ``density`` = rest density [kg/m³], ``velocity`` [m/s]), the walls as
-    ``walls.*`` (field ``normal``), and for VTU ``NAME.pvd`` (the time series, walls as
-    part 1 at every time). ``progress(1)`` is called per frame. Returns the written files."""
+    ``id``, ``phase``, ``density`` = rest density [kg/m³], ``velocity`` [m/s]), the wall
+    particles as ``walls.*`` (field ``normal``), each mesh wall of a 3-D scene as the
+    triangle surface ``walls_mesh_NAME.*`` (:mod:`.walls`), and for VTU ``NAME.pvd`` (the
+    time series; wall particles part 1, meshes parts 2, 3, … at every time).
+    ``progress(1)`` is called per frame, ``warn(text)`` for a mesh that cannot be found.
+    Returns the written files."""
     if fmt not in EXPORT_FORMATS:
         raise DcdcError(f"unknown export format {fmt!r} (use {' or '.join(EXPORT_FORMATS)})")
     ext = EXPORT_FORMATS[fmt]
@@ -189,6 +209,14 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None) -> li
                                  colors=np.full((len(traj.wall_x), 3), 0.6)))
     else:
         written.append(writer(out_dir / walls, traj.wall_x, wall_fields))
+    from .walls import wall_meshes
+    meshes, notes = wall_meshes(traj)
+    for note in notes if warn else ():
+        warn(note)
+    mesh_files = []
+    for name, verts, tris in meshes:
+        mesh_files.append(f"walls_mesh_{name}{ext}")
+        written.append(writer(out_dir / mesh_files[-1], verts, triangles=tris))
     for f in frames:
         active = birth <= times[f] + 1e-9
         fields = {"id": ids[active], "phase": phase[active], "density": density[active],
@@ -200,6 +228,7 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None) -> li
         else:
             written.append(writer(out_dir / name, x, fields))
             entries += [(float(times[f]), 0, name), (float(times[f]), 1, walls)]
+            entries += [(float(times[f]), 2 + k, m) for k, m in enumerate(mesh_files)]
         if progress:
             progress(1)
     if fmt == "vtk":
