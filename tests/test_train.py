@@ -257,3 +257,41 @@ def test_run_directory_and_data_mismatches_are_refused(tmp_path):
     if not torch.cuda.is_available():
         with pytest.raises(DcdcError, match="--device cuda: no CUDA device is available"):
             Trainer(tiny(), tmp_path / "r4", device="cuda")
+
+
+def _synthetic_3d(path, n_traj=2, n=60, frames=5):
+    """A small 3-D dataset (free fall of a jittered block over a floor): not physics, just
+    the 3-D code path — rotation about gravity, 3-D network, stored max_density_ratio."""
+    from dcdc.data.dataset import write_trajectory
+    from dcdc.particles import ParticleSystem, Phase
+
+    path.mkdir()
+    for k in range(n_traj):
+        rng = np.random.default_rng(k)
+        x0 = rng.uniform(0, 0.2, (n, 3)) + [0, 0.1, 0]
+        v0 = rng.normal(scale=0.05, size=(n, 3))
+        phase = (x0[:, 1] > 0.2).astype(int)
+        walls = np.stack(np.meshgrid(np.arange(0, 0.25, 0.05), [0.0], np.arange(0, 0.25, 0.05),
+                                     indexing="ij"), -1).reshape(-1, 3)
+        ps = ParticleSystem(3, 0.025, x0, v0, phase, [Phase("a", 1000.0), Phase("b", 2500.0)],
+                            walls, np.tile([0, 1.0, 0], (len(walls), 1)), (0, -9.81, 0),
+                            (np.full(3, -1.0), np.full(3, 1.0)))
+        t = np.arange(frames) * 0.02
+        xs = np.stack([x0 + v0 * s - 0.5 * 9.81 * s ** 2 * np.array([0, 1, 0]) for s in t])
+        vs = np.stack([v0 - 9.81 * s * np.array([0, 1, 0]) for s in t])
+        write_trajectory(path / f"t{k}.h5", f"t{k}", xs, vs, t, ps,
+                         {"frame_dt": 0.02, "max_density_ratio": 2.5 if k else 1.0})
+
+
+def test_3d_training_path(tmp_path):
+    data = tmp_path / "d3"
+    _synthetic_3d(data)
+    cfg = tiny(f"data.train='{data}'", "data.val=''", "optim.steps=3", "data.batch_scenes=2",
+               "loss.neighbor_scale=40.0",
+               "curriculum.stages=[{until=0.4, max_ratio=1.0}]")
+    ds = Dataset(data)
+    assert sorted(max_density_ratio(t) for t in ds) == [1.0, 2.5]  # the stored attribute
+    path = train(cfg, tmp_path / "run3", echo=lambda *_: None)
+    model, ck = load_checkpoint(path, expect="dcdc", dim=3)
+    assert [r["stage"] for r in rows(tmp_path / "run3")] == ["0", "0", "1"]
+    assert ck["data"]["density_ratio_max"] == 2.5
