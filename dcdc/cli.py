@@ -24,6 +24,9 @@ COMMANDS = {
     "render": "dcdc.render.cli:render_command",
     "export": "dcdc.render.cli:export_command",
     "view": "dcdc.render.cli:view_command",
+    "simulate": "dcdc.evaluate.cli:simulate_command",
+    "evaluate": "dcdc.evaluate.cli:evaluate_command",
+    "model": "dcdc.model.cli:model_group",
 }
 BENCHMARKS = {
     "sph": "dcdc.sph.benchmark:benchmark_command",

@@ -1,0 +1,1 @@
+"""Neural rollout, scores against SPH ground truth, and the `simulate` / `evaluate` commands."""

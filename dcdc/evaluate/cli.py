@@ -1,0 +1,272 @@
+"""``dcdc simulate`` (a neural rollout written as a trajectory) and ``dcdc evaluate``
+(models against SPH ground truth). Thin layers over :mod:`.rollout` and :mod:`.scores`."""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import click
+
+from ..errors import DcdcError
+
+
+def _start_from_scene(scene: str, dim, resolution: float, model, steps, max_particles):
+    """(system, n_steps, attrs) of a dcdc scene (built-in, .toml) or a DeepLagrangianFluids
+    scene (.json). Without ``--dim`` a 3-D scene is run in the model's dimension."""
+    from ..model.checkpoint import check_compatible
+
+    if scene.endswith(".json"):
+        from ..model.dlf import scene_system
+        if dim is not None and int(dim) != 3:
+            raise DcdcError("a DeepLagrangianFluids scene (.json) is 3-D; drop --dim")
+        system = scene_system(scene, radius=model.cfg.particle_radius,
+                              frames=steps or 1, dt=model.cfg.frame_dt)
+        n = steps or 250  # run_network.py's default
+        return system, n, {"scene": Path(scene).stem, "source": str(scene)}
+    from ..scene import get_scene
+    sc = get_scene(scene)
+    if dim is None:
+        dim = model.dim if sc.dim == 3 else sc.dim
+    check_compatible(model, frame_dt=sc.frame_dt, what=f"scene {sc.name} (frame_dt)")
+    n = steps if steps is not None else max(1, int(round(sc.duration / model.cfg.frame_dt)))
+    system = sc.realize(dim=int(dim), resolution=resolution, frames=n + 1,
+                        max_particles=max_particles)
+    return system, n, {"scene": sc.name, "scene_toml": sc.text, "source": scene,
+                       "scene_dim": sc.dim, "resolution": resolution}
+
+
+def _start_from_dataset(dataset: str, name: str, frame: int, steps):
+    """(system, start time, n_steps, attrs) of a ground-truth trajectory's frame."""
+    from ..data.dataset import Dataset
+    traj = Dataset(dataset)[name]
+    if not 0 <= frame < traj.n_frames - (0 if steps else 1):
+        raise DcdcError(f"--start-frame {frame} outside {name} (frames 0..{traj.n_frames - 1})")
+    n = steps if steps is not None else traj.n_frames - 1 - frame
+    attrs = {"scene": str(traj.attrs.get("scene", name)), "source": f"{dataset}:{name}",
+             "ground_truth": str(Path(dataset)), "ground_truth_trajectory": name,
+             "start_frame": frame, "scene_toml": str(traj.attrs.get("scene_toml", ""))}
+    return traj.system(frame), float(traj.time[frame]), n, attrs, traj.frame_dt
+
+
+@click.command("simulate")
+@click.option("--model", "model_path", required=True, type=click.Path(dir_okay=False),
+              help="a dcdc checkpoint (dcdc train, dcdc model import-dlf)")
+@click.option("--scene", default=None,
+              help="built-in name, scene file (.toml) or DeepLagrangianFluids scene (.json)")
+@click.option("--dim", type=click.Choice(["2", "3"]), default=None,
+              help="with --scene (default: the model's for a 3-D scene)")
+@click.option("--resolution", type=float, default=1.0, show_default=True,
+              help="with --scene: length scale at fixed particle size")
+@click.option("--dataset", default=None, help="start from a ground-truth trajectory of this dataset")
+@click.option("--trajectory", default=None, help="with --dataset: the trajectory's name")
+@click.option("--start-frame", type=int, default=0, show_default=True, help="with --dataset")
+@click.option("--steps", type=int, default=None,
+              help="network steps (default: the scene's duration / the trajectory's frames)")
+@click.option("--max-speed", type=float, default=50.0, show_default=True,
+              help="guard: a faster particle stops the rollout [m/s]")
+@click.option("--max-in-walls", type=float, default=0.01, show_default=True,
+              help="guard: the largest fraction of particles allowed inside walls")
+@click.option("--device", default="cpu", show_default=True)
+@click.option("--max-particles", type=float, default=None, help="raise the scene's particle budget")
+@click.option("--out", required=True, type=click.Path(dir_okay=False), help="rollout .h5 file")
+@click.option("--overwrite", is_flag=True, help="replace an existing --out file")
+def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, start_frame, steps,
+                     max_speed, max_in_walls, device, max_particles, out, overwrite):
+    """Roll out a learned model and write the trajectory (dataset HDF5 layout)."""
+    from tqdm import tqdm
+
+    from ..data import interrupt
+    from ..data.generate import code_version
+    from ..data.outputs import check_file
+    from ..model.checkpoint import check_compatible, load_checkpoint
+    from .rollout import Guard, NeuralSimulator, run, write_rollout
+
+    if (scene is None) == (dataset is None):
+        raise DcdcError("give exactly one of --scene or --dataset")
+    if dataset is not None and trajectory is None:
+        raise DcdcError("--dataset needs --trajectory NAME (dcdc dataset info lists them)")
+    if dataset is None and (trajectory is not None or start_frame):
+        raise DcdcError("--trajectory and --start-frame need --dataset")
+    if scene is None and dim is not None:
+        raise DcdcError("--dim goes with --scene (a trajectory has its own dimension)")
+    if steps is not None and steps < 1:
+        raise DcdcError(f"--steps must be >= 1 (got {steps})")
+    out = check_file(out, overwrite)
+    guard = Guard(max_speed=max_speed, max_in_walls=max_in_walls)
+    model, ck = load_checkpoint(model_path, device=device)
+    t_start = 0.0
+    if scene is not None:
+        system, n, attrs = _start_from_scene(scene, dim, resolution, model, steps, max_particles)
+    else:
+        system, t_start, n, attrs, fdt = _start_from_dataset(dataset, trajectory, start_frame, steps)
+        check_compatible(model, frame_dt=fdt, what=f"trajectory {trajectory}")
+    sim = NeuralSimulator(model, system, guard=guard, time=t_start, device=device)
+    name = f"{attrs['scene']}_{system.dim}d" if dataset is None else trajectory
+    click.echo(f"{model.name} ({model_path}) on {name}: {system.n_fluid} fluid + "
+               f"{system.n_wall} wall particles, {n} steps of {sim.dt:g} s")
+    t0 = time.time()
+    with interrupt.handling(), tqdm(total=n, unit="step") as bar:
+        ro = run(sim, n, progress=bar.update, interrupt_check=interrupt.check)
+    version, commit = code_version()
+    meta = {**attrs, "name": name, "frame_dt": sim.dt, "split": "rollout",
+            "solver": f"dcdc.neural ({model.name})",
+            "solver_settings": json.dumps(model.config(), sort_keys=True),
+            "model": str(model_path), "model_digest": str(ck.get("digest", "")),
+            "dcdc_version": version, "git_commit": commit,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "wall_time_s": time.time() - t0}
+    write_rollout(out, name, ro, sim.system, meta)
+    walls = int(ro.in_walls.max()) if len(ro.in_walls) else 0
+    click.echo(f"wrote {out}: {ro.steps} of {n} steps, {ro.ms_per_step:.1f} ms per step, "
+               f"at most {walls} particle(s) inside walls")
+    if ro.stopped is not None:
+        raise ro.stopped
+
+
+def _labels(paths) -> list[str]:
+    """Column labels for models: the file stem, made unique."""
+    out = []
+    for p in paths:
+        s = Path(p).stem
+        out.append(s if s not in out else f"{s}#{len(out)}")
+    return out
+
+
+COLUMNS = [  # (heading, key, format) of the stdout table
+    ("n+1 mm", "err_n1_mm", "{:.2f}"), ("n+2 mm", "err_n2_mm", "{:.2f}"),
+    ("rollout mm", "rollout_mm", "{:.1f}"), ("sinkhorn mm", "sinkhorn_mm", "{:.1f}"),
+    ("KE err", "ke_error", "{:.3f}"), ("COM err", "com_height_error", "{:.3f}"),
+    ("order", "order_ok", "{}"), ("purity", "purity", "{:.3f}"),
+    ("vol err", "volume_error", "{:.4f}"), ("mom m/s", "momentum_error", "{:.3f}"),
+    ("in walls", "in_walls_max", "{}"), ("steps", "steps", "{}"), ("ms/step", "ms_per_step", "{:.1f}"),
+]
+
+
+def _cell(row, key, fmt):
+    v = row.get(key)
+    if v is None:
+        return "-"
+    if isinstance(v, bool) or key == "order_ok":
+        return "yes" if v is True or v == 1.0 else ("no" if v in (False, 0.0) else f"{v:.2f}")
+    return fmt.format(v)
+
+
+def format_table(results: dict) -> str:
+    """Markdown table: per trajectory, a row per model and one for the SPH ground truth."""
+    head = ["trajectory", "model"] + [c[0] for c in COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for traj, per_model in results["trajectories"].items():
+        for label, row in per_model.items():
+            cells = [_cell(row, k, f) for _, k, f in COLUMNS]
+            if not row.get("stable", True):
+                cells[-2] = f"{row['steps']} ({row['stop_cause']})"
+            lines.append("| " + " | ".join([traj, label] + cells) + " |")
+        any_row = next(iter(per_model.values()))
+        sph = {"order_ok": any_row["order_ok_true"], "purity": any_row["purity_true"]}
+        lines.append("| " + " | ".join([traj, "SPH (truth)"] +
+                                       [_cell(sph, k, f) for _, k, f in COLUMNS]) + " |")
+    for label, agg in results["aggregate"].items():
+        cells = [_cell(agg, k, f) for _, k, f in COLUMNS]
+        cells[-2] = f"{agg['stable']}/{agg['trajectories']} stable, min {agg['steps_min']}"
+        lines.append("| " + " | ".join(["**all**", label] + cells) + " |")
+    return "\n".join(lines)
+
+
+def _plot(results: dict, out_dir: Path) -> list[Path]:
+    """Per trajectory: rollout error and kinetic energy over time, one line per model."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..data.outputs import atomic_file
+
+    written = []
+    for traj, per_model in results["trajectories"].items():
+        fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.6))
+        for label, row in per_model.items():
+            c = row["curves"]
+            a.plot(c["time"], c["rollout_mm"], label=label)
+            b.plot(c["time"], c["ke_pred"], label=label)
+        first = next(iter(per_model.values()))["curves"]
+        b.plot(first["time"], first["ke_true"], "k--", label="SPH (truth)")
+        a.set(xlabel="t [s]", ylabel="rollout error [mm]", title=f"{traj}: nearest-particle error")
+        b.set(xlabel="t [s]", ylabel="kinetic energy [J]", title="kinetic energy")
+        a.legend(fontsize=8)
+        b.legend(fontsize=8)
+        fig.tight_layout()
+        path = out_dir / f"{traj}.png"
+        with atomic_file(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+@click.command("evaluate")
+@click.option("--model", "models", multiple=True, required=True, type=click.Path(dir_okay=False),
+              help="a checkpoint; repeat for several models side by side")
+@click.option("--data", required=True, help="ground-truth dataset (directory or .h5)")
+@click.option("--trajectory", "names", multiple=True, help="only these trajectories (repeatable)")
+@click.option("--steps", type=int, default=None, help="rollout steps (default: every frame)")
+@click.option("--stride", type=int, default=5, show_default=True,
+              help="n+1 / n+2 errors from every STRIDE-th ground-truth frame")
+@click.option("--max-speed", type=float, default=50.0, show_default=True, help="guard [m/s]")
+@click.option("--max-in-walls", type=float, default=0.01, show_default=True, help="guard")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None)
+@click.option("--plots", "plot_dir", type=click.Path(file_okay=False), default=None,
+              help="write error-over-time plots (PNG per trajectory) here")
+@click.option("--overwrite", is_flag=True, help="replace an existing --json file / plots")
+def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls, json_path,
+                     plot_dir, overwrite):
+    """Score models against the SPH ground truth: table on stdout, JSON, plots."""
+    from tqdm import tqdm
+
+    from ..data import interrupt
+    from ..data.dataset import Dataset
+    from ..data.outputs import check_dir, check_file, write_text
+    from ..model.checkpoint import check_compatible, load_checkpoint
+    from .rollout import Guard
+    from .scores import aggregate, score_trajectory
+
+    if stride < 1:
+        raise DcdcError(f"--stride must be >= 1 (got {stride})")
+    if steps is not None and steps < 1:
+        raise DcdcError(f"--steps must be >= 1 (got {steps})")
+    if json_path:
+        check_file(json_path, overwrite)
+    if plot_dir:
+        check_dir(plot_dir, overwrite=None)
+    guard = Guard(max_speed=max_speed, max_in_walls=max_in_walls)
+    ds = Dataset(data)
+    trajs = [ds[n] for n in names] if names else list(ds)
+    if not trajs:
+        raise DcdcError(f"{data}: no finished trajectories to evaluate")
+    nets = [load_checkpoint(m)[0] for m in models]
+    labels = _labels(models)
+    for net, m in zip(nets, models):  # every mismatch before any work
+        for t in trajs:
+            check_compatible(net, dim=t.dim, radius=t.radius, frame_dt=t.frame_dt,
+                             what=f"trajectory {t.name} of {data}")
+    results = {"data": str(data), "models": dict(zip(labels, map(str, models))),
+               "stride": stride, "steps": steps, "trajectories": {}, "aggregate": {}}
+    with interrupt.handling(), tqdm(total=len(trajs) * len(nets), unit="rollout") as bar:
+        for t in trajs:
+            per = {}
+            for label, net in zip(labels, nets):
+                bar.set_postfix_str(f"{t.name} / {label}")
+                per[label] = score_trajectory(net, t, stride, steps, guard)
+                interrupt.check()
+                bar.update(1)
+            results["trajectories"][t.name] = per
+    for label in labels:
+        results["aggregate"][label] = aggregate([p[label] for p in results["trajectories"].values()])
+    click.echo(format_table(results))
+    if json_path:
+        write_text(json_path, json.dumps(results, indent=1, sort_keys=True))
+        click.echo(f"wrote {json_path}")
+    if plot_dir:
+        d = Path(plot_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        for p in _plot(results, d):
+            click.echo(f"wrote {p}")

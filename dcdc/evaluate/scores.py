@@ -1,0 +1,193 @@
+"""Scores of learned models against SPH ground truth (DESIGN §6; docs/evaluation.md).
+
+:func:`score_trajectory` runs one model on one ground-truth trajectory and returns plain
+numbers (JSON-ready) plus per-frame curves; :func:`aggregate` averages over trajectories.
+Every metric is defined in docs/evaluation.md and computed with :mod:`dcdc.metrics`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from .. import metrics as M
+from .rollout import Guard, NeuralSimulator, run
+
+MM = 1e3  # metres -> millimetres
+
+
+def _finite(v):
+    """JSON-friendly float: NaN/inf become None."""
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def rest_volume(radius: float, dim: int, support: float = 4.0) -> float:
+    """The SPH solver's rest volume per particle V0 (lattice volume of spacing 2r, h = support·r);
+    particle masses are ρ0 V0."""
+    from ..sph.kernels import lattice_volume
+    return lattice_volume(2 * radius, support * radius, dim)
+
+
+def number_density(x, radius: float, wall_x, support: float = 4.0):
+    """ψ_i = V0 Σ_j W_ij + Σ_b V_b W_ib with the SPH solver's cubic kernel (h = support·r),
+    lattice volume V0 and Akinci wall volumes V_b (docs/sph.md): the solver's own density
+    estimate, for a predicted state as for the ground truth. Returns (ψ [N], V0)."""
+    from ..neighbors import radius_search
+    from ..sph.boundary import wall_volumes
+    from ..sph.terms import edge_kernels
+
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    h = support * radius
+    V0 = rest_volume(radius, x.shape[1], support)
+    nb = radius_search(x, h)
+    W, _ = edge_kernels(x, x, nb.row_splits, nb.index, h)
+    psi = V0 * np.bincount(nb.receivers(), weights=W, minlength=len(x))
+    wall_x = np.ascontiguousarray(wall_x, dtype=np.float64)
+    if len(wall_x):
+        Vb = wall_volumes(wall_x, h, V0)
+        nw = radius_search(x, h, wall_x)
+        Ww, _ = edge_kernels(x, wall_x, nw.row_splits, nw.index, h)
+        psi += np.bincount(nw.receivers(), weights=Vb[nw.index] * Ww, minlength=len(x))
+    return psi, V0
+
+
+def one_two_step_errors(model, traj, stride: int = 5) -> tuple[float, float, int]:
+    """DeepLagrangianFluids' n+1 and n+2 errors [m]: from the ground-truth state at every
+    ``stride``-th frame f, one and two network steps, compared with frames f+1 and f+2 (mean
+    per-particle distance of the particles present at f, averaged over the starts).
+    Returns (err_n1, err_n2, number of starts)."""
+    from ..model.integrator import step
+
+    e1, e2 = [], []
+    T = traj.n_frames
+    rho = traj.density.astype(np.float64)
+    wx, wn = torch.as_tensor(traj.wall_x), torch.as_tensor(traj.wall_n)
+    g = torch.as_tensor(traj.gravity)
+    birth, times = traj.birth, traj.time
+    pos, vel = traj.position, traj.velocity
+    for f in range(0, T - 2, stride):
+        act = birth <= times[f] + 1e-9
+        if not act.any():
+            continue
+        with torch.no_grad():
+            x1, v1 = step(model, pos[f][act].astype(np.float64), vel[f][act].astype(np.float64),
+                          rho[act], wx, wn, None, g)
+            x2, _ = step(model, x1, v1, rho[act], wx, wn, None, g)
+        e1.append(M.position_error(x1.double().numpy(), pos[f + 1][act]))
+        e2.append(M.position_error(x2.double().numpy(), pos[f + 2][act]))
+    return (float(np.mean(e1)) if e1 else float("nan"),
+            float(np.mean(e2)) if e2 else float("nan"), len(e1))
+
+
+def physical_state(x, v, phase, phases, radius, wall_x, domain_min, active):
+    """Physical metrics of one state (predicted or true): per-phase centre-of-mass and median
+    heights above the domain floor, stratification order, neighbour purity, per-phase
+    volumes and the mean compression (docs/evaluation.md)."""
+    x, v, phase = x[active], v[active], phase[active]
+    P = len(phases)
+    rho = np.array([p.density for p in phases])
+    floor = float(domain_min[1])
+    psi, V0 = number_density(x, radius, wall_x)
+    return {
+        "com_height": (M.phase_heights(x, phase, P) - floor),
+        "median_height": (M.phase_heights(x, phase, P, stat="median") - floor),
+        "order_ok": M.density_order_ok(x, phase, rho, stat="median"),
+        "order_ok_com": M.density_order_ok(x, phase, rho, stat="mean"),
+        "purity": M.neighbour_purity(x, phase, 4.0 * radius),
+        "volumes": M.phase_volumes(psi, phase, V0, P),
+        "density_error": M.density_error(psi),
+    }
+
+
+def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
+                     guard: Guard | None = None, sinkhorn_points: int = 1000) -> dict:
+    """All scores of ``model`` on ground-truth trajectory ``traj`` (a
+    :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors, a rollout from frame 0 over
+    ``steps`` (default: every frame) with its per-frame errors and the final-state physics.
+    The rollout's per-frame curves are under ``"curves"``."""
+    from ..model.checkpoint import check_compatible
+
+    check_compatible(model, dim=traj.dim, radius=traj.radius, frame_dt=traj.frame_dt,
+                     what=f"trajectory {traj.name}")
+    n1, n2, starts = one_two_step_errors(model, traj, stride)
+    n = traj.n_frames - 1 if steps is None else min(int(steps), traj.n_frames - 1)
+    sim = NeuralSimulator(model, traj.system(0), guard=guard, time=float(traj.time[0]))
+    ro = run(sim, n)
+    K = ro.steps
+    phases, phase = traj.phases, traj.phase
+    mass = traj.density.astype(np.float64) * rest_volume(traj.radius, traj.dim)
+    pos_t, vel_t = traj.position, traj.velocity
+    near, perr, ke_p, ke_t, mom = [], [], [], [], []
+    for k in range(1, K + 1):
+        act = traj.birth <= traj.time[k] + 1e-9
+        xp, xt = ro.position[k][act], pos_t[k][act]
+        near.append(M.nearest_error(xp, xt))
+        perr.append(M.position_error(xp, xt))
+        ke_p.append(M.kinetic_energy(ro.velocity[k][act], mass[act]))
+        ke_t.append(M.kinetic_energy(vel_t[k][act], mass[act]))
+        dP = M.momentum(ro.velocity[k][act], mass[act]) - M.momentum(vel_t[k][act], mass[act])
+        mom.append(float(np.linalg.norm(dP)) / max(float(mass[act].sum()), 1e-30))
+    act = traj.birth <= traj.time[K] + 1e-9
+    dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
+    pred = physical_state(ro.position[K].astype(np.float64), ro.velocity[K], phase, phases,
+                          traj.radius, traj.wall_x, dmin, act)
+    true = physical_state(pos_t[K].astype(np.float64), vel_t[K], phase, phases, traj.radius,
+                          traj.wall_x, dmin, act)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        com_rel = np.abs(pred["com_height"] - true["com_height"]) / np.abs(true["com_height"])
+    sink = [M.sinkhorn_distance(ro.position[K][act & (phase == p)], pos_t[K][act & (phase == p)],
+                                blur=2 * traj.radius, max_points=sinkhorn_points)
+            for p in range(len(phases)) if (act & (phase == p)).any()]
+    ke_scale = float(np.mean(ke_t)) if ke_t else float("nan")
+    st = ro.stopped
+    vol_err = M.volume_error(pred["volumes"], true["volumes"])
+    return {
+        "trajectory": traj.name, "particles": traj.n_particles, "phases": len(phases),
+        "frames": traj.n_frames, "steps_requested": n, "steps": K,
+        "stable": st is None, "stop_cause": st.cause if st else "",
+        "stopped": str(st) if st else "", "steps_to_failure": st.step if st else None,
+        "starts_n1n2": starts,
+        "err_n1_mm": _finite(MM * n1), "err_n2_mm": _finite(MM * n2),
+        "rollout_mm": _finite(MM * np.mean(near)) if near else None,
+        "position_mm": _finite(MM * np.mean(perr)) if perr else None,
+        "sinkhorn_mm": _finite(MM * np.mean(sink)) if sink else None,
+        "sinkhorn_mm_per_phase": [_finite(MM * s) for s in sink],
+        "ke_error": _finite(np.mean(np.abs(np.subtract(ke_p, ke_t))) / ke_scale) if ke_t else None,
+        "momentum_error": _finite(np.mean(mom)) if mom else None,
+        "com_height_error": _finite(np.nanmax(com_rel)) if np.isfinite(com_rel).any() else None,
+        "com_height_pred": [_finite(h) for h in pred["com_height"]],
+        "com_height_true": [_finite(h) for h in true["com_height"]],
+        "order_ok": bool(pred["order_ok"]), "order_ok_true": bool(true["order_ok"]),
+        "order_ok_com": bool(pred["order_ok_com"]),
+        "purity": _finite(pred["purity"]), "purity_true": _finite(true["purity"]),
+        "volume_error": _finite(np.nanmax(np.abs(vol_err))) if np.isfinite(vol_err).any() else None,
+        "density_error": _finite(pred["density_error"]),
+        "density_error_true": _finite(true["density_error"]),
+        "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
+        "in_walls_mean": _finite(ro.in_walls.mean()) if len(ro.in_walls) else 0.0,
+        "ms_per_step": _finite(ro.ms_per_step),
+        "curves": {"time": ro.time[1:].tolist(), "rollout_mm": [MM * e for e in near],
+                   "position_mm": [MM * e for e in perr], "ke_pred": ke_p, "ke_true": ke_t,
+                   "in_walls": ro.in_walls.tolist()},
+    }
+
+
+NUMERIC = ("err_n1_mm", "err_n2_mm", "rollout_mm", "position_mm", "sinkhorn_mm", "ke_error",
+           "momentum_error", "com_height_error", "purity", "purity_true", "volume_error",
+           "density_error", "density_error_true", "in_walls_max", "ms_per_step")
+
+
+def aggregate(rows: list[dict]) -> dict:
+    """Means over trajectories of the numeric scores (None where no trajectory has one),
+    the fraction with the right final order, the stable count and the fewest steps."""
+    out = {"trajectories": len(rows)}
+    for k in NUMERIC:
+        vals = [r[k] for r in rows if r.get(k) is not None]
+        out[k] = float(np.mean(vals)) if vals else None
+    out["order_ok"] = float(np.mean([r["order_ok"] for r in rows])) if rows else None
+    out["order_ok_true"] = float(np.mean([r["order_ok_true"] for r in rows])) if rows else None
+    out["stable"] = int(sum(r["stable"] for r in rows))
+    out["steps_min"] = int(min((r["steps"] for r in rows), default=0))
+    return out
