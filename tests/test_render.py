@@ -214,3 +214,19 @@ def test_render_refuses_bad_requests(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("error: ") and msg in err[0], (args, err)
     assert out.read_bytes() == b"old" and (keep / "notes.txt").exists()
+
+
+def test_nan_positions_of_a_diverged_rollout_are_skipped(tmp_path, traj3d):
+    import shutil
+
+    import h5py
+    path = tmp_path / "nan.h5"
+    shutil.copy(traj3d.ref.file, path)
+    with h5py.File(path, "r+") as f:
+        f[traj3d.name]["position"][2, :5] = np.nan
+    bad = open_trajectory(path)
+    cam = default_camera(bad, 120)
+    fig = Figure.build([traj3d, bad], cam, None, 1)
+    assert len(fig.renderers[1].present(2)) == traj3d.n_particles - 5
+    assert fig.renderers[1].draw(2).shape == (cam.height, cam.width, 3)
+    assert 0 < fig.error_mm(2) < 1.0 and fig.error_mm(1) == 0.0

@@ -142,11 +142,9 @@ class Figure:
 
     def error_mm(self, f: int) -> float:
         """Mean nearest-particle distance between A and B at frame ``f`` (all particles
-        present, cut-away or not) [mm]."""
-        a, b = self.trajs[:2]
-        xa = a._get("position", f)[a.birth <= a.time[f] + 1e-9]
-        xb = b._get("position", f)[b.birth <= b.time[f] + 1e-9]
-        return 1000 * mean_nearest_distance(xa, xb, 2 * a.radius)
+        present, cut away or not; NaN when either has none) [mm]."""
+        return 1000 * mean_nearest_distance(*(r.present(f) for r in self.renderers[:2]),
+                                            2 * self.trajs[0].radius)
 
     # ------------------------------------------------------------- the three figures
     def frame(self, f: int) -> np.ndarray:

@@ -54,6 +54,9 @@ def scene_bounds(traj) -> tuple[np.ndarray, np.ndarray]:
         parts.append(traj._get("position", f))
     pts = np.concatenate([p for p in parts if len(p)]) if any(len(p) for p in parts) else \
         np.zeros((1, traj.dim))
+    pts = pts[np.isfinite(pts).all(1)]
+    if not len(pts):
+        pts = np.zeros((1, traj.dim))
     pad = traj.radius
     lo, hi = pts.min(0) - pad, pts.max(0) + pad
     dlo = np.asarray(traj.attrs.get("domain_min", lo), np.float64)
@@ -111,11 +114,21 @@ class FrameRenderer:
         shade_layer(ids, sx, sy, rad, colors, LIGHT, MATERIAL, rgb)
         return zbuf, rgb
 
-    def fluid(self, f: int):
-        """Positions and colours of the particles drawn at frame ``f``."""
+    def _present(self, f: int):
         x = self.traj._get("position", f)
-        active = self.birth <= self.times[f] + 1e-9
-        keep = active & self._keep(x)
+        return x, (self.birth <= self.times[f] + 1e-9) & np.isfinite(x).all(1)
+
+    def present(self, f: int) -> np.ndarray:
+        """Positions of the particles emitted by frame ``f`` with finite coordinates (a
+        diverged rollout may hold NaN)."""
+        x, ok = self._present(f)
+        return x[ok]
+
+    def fluid(self, f: int):
+        """Positions and colours of the particles drawn at frame ``f``: :meth:`present`
+        and not cut away."""
+        x, ok = self._present(f)
+        keep = ok & self._keep(x)
         return x[keep], self.colors[self.phase[keep]]
 
     def draw(self, f: int, x: np.ndarray | None = None, colors=None) -> np.ndarray:

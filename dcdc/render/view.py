@@ -47,7 +47,7 @@ def view_frames(n_frames: int, max_frames: int, stride: int = 1) -> list[int]:
 
 
 def _quantise(x: np.ndarray, lo: np.ndarray, span: np.ndarray) -> np.ndarray:
-    q = np.round((x - lo) / span * 65535.0)
+    q = np.round(np.nan_to_num((x - lo) / span, nan=0.0) * 65535.0)  # NaN: a corner
     return np.clip(q, 0, 65535).astype("<u2")
 
 
