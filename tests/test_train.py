@@ -295,3 +295,12 @@ def test_3d_training_path(tmp_path):
     model, ck = load_checkpoint(path, expect="dcdc", dim=3)
     assert [r["stage"] for r in rows(tmp_path / "run3")] == ["0", "0", "1"]
     assert ck["data"]["density_ratio_max"] == 2.5
+
+
+def test_a_non_finite_loss_stops_with_one_line(tmp_path, monkeypatch):
+    import dcdc.train.trainer as trainer_mod
+
+    monkeypatch.setattr(trainer_mod, "unrolled_loss",
+                        lambda *a, **k: (torch.tensor(float("nan"), requires_grad=True), [0.0, 0.0]))
+    with pytest.raises(DcdcError, match="training diverged at step 1: the loss is not finite"):
+        train(tiny("optim.steps=2"), tmp_path / "nan", echo=lambda *_: None)

@@ -93,6 +93,16 @@ def _share_threads(d: Dist) -> None:
         numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
 
 
+def _all_finite(loss: torch.Tensor, d: Dist) -> bool:
+    ok = bool(torch.isfinite(loss.detach()))
+    if d.world == 1:
+        return ok
+    import torch.distributed as dist
+    t = torch.tensor([1.0 if ok else 0.0])
+    dist.all_reduce(t, op=dist.ReduceOp.MIN)
+    return bool(t.item() > 0)
+
+
 def _all_mean(values: list[float], d: Dist) -> list[float]:
     if d.world == 1:
         return values
@@ -254,6 +264,9 @@ class Trainer:
                 raise DcdcError(f"--resume: {self.run_dir} was trained with another "
                                 f"{diff[0]} (and {len(diff) - 1} more setting(s)); "
                                 f"continue with its config.toml or choose another --out")
+            if not isinstance(extra.get("optimizer"), dict) or "step" not in extra:
+                raise DcdcError(f"{path} is a model checkpoint without training state; "
+                                f"--resume needs the step files dcdc train writes")
             self.net.load_state_dict(ck["state_dict"])
             self.opt.load_state_dict(extra["optimizer"])
             self.step = int(extra["step"])
@@ -308,9 +321,10 @@ class Trainer:
         self.net.train()
         self.opt.zero_grad(set_to_none=True)
         loss, parts = unrolled_loss(self.model, batch, cfg.loss)
-        if not torch.isfinite(loss):
-            raise DcdcError(f"training diverged at step {step + 1}: the loss is {float(loss)} "
-                            f"(lower optim.lr or set optim.grad_clip)")
+        if not _all_finite(loss, self.dist):  # every rank stops together
+            raise DcdcError(f"training diverged at step {step + 1}: the loss is not finite "
+                            f"(lower optim.lr or set optim.grad_clip; resume from the last "
+                            f"checkpoint with --resume)")
         loss.backward()
         if cfg.optim.grad_clip > 0:
             torch.nn.utils.clip_grad_norm_(self.net.parameters(), cfg.optim.grad_clip)
