@@ -33,7 +33,14 @@ class RandomSceneConfig:
     max_speed: float = 1.0
     obstacles: bool = True
     radius: float = 0.025
-    min_particles: int | None = None  # redraw scenes with fewer fluid particles (default 150 / 1200)
+    min_particles: int | None = None  # redraw scenes with fewer fluid particles (default 700 / 1200)
+    size: float | None = None  # length scale of containers and obstacles (default 2-D: 2, 3-D: 1)
+
+    @property
+    def scale(self) -> float:
+        """2-D scenes are drawn 2x larger than 3-D ones, so that at r = 2.5 cm they hold
+        ~1 000-2 000 fluid particles (enough for collective flow; issue 8) instead of 150-640."""
+        return self.size if self.size is not None else (2.0 if self.dim == 2 else 1.0)
 
     def check(self):
         lo, hi = self.density_range
@@ -45,6 +52,8 @@ class RandomSceneConfig:
         require(self.min_ratio <= hi / lo,
                 f"--min-ratio {self.min_ratio} is impossible within densities {lo}..{hi}")
         require(1 <= self.max_blocks <= 4, "max_blocks must be 1..4")
+        require(self.size is None or (math.isfinite(self.size) and self.size > 0),
+                f"size must be > 0 (got {self.size})")
         return self
 
 
@@ -77,7 +86,7 @@ def random_scene(seed: int, cfg: RandomSceneConfig | None = None) -> dict:
         try:
             scene = _draw(rng, seed, cfg, sp)
             n = Scene(validate(scene, "", f"random seed {seed}")).realize().n_fluid
-            if n >= (cfg.min_particles if cfg.min_particles is not None else (150 if d == 2 else 1200)):
+            if n >= (cfg.min_particles if cfg.min_particles is not None else (700 if d == 2 else 1200)):
                 return scene
         except DcdcError:
             continue  # overlapping draw: try again with the same generator (reproducible)
@@ -86,25 +95,27 @@ def random_scene(seed: int, cfg: RandomSceneConfig | None = None) -> dict:
 
 def _draw(rng, seed, cfg, sp) -> dict:
     d = cfg.dim
+    k = cfg.scale
     walls, fluid = {}, []
     container = "bowl" if rng.uniform() < 0.2 else "box"
     # every container is closed by a lid (a box around it), so no splash leaves the domain
     if container == "box":
-        W = _snap(rng.uniform(1.0, 2.0) if d == 2 else rng.uniform(0.8, 1.4), sp)
-        H = _snap(rng.uniform(0.8, 1.4), sp)
-        D = _snap(rng.uniform(0.6, 1.2), sp) if d == 3 else None
+        W = _snap(k * (rng.uniform(1.0, 2.0) if d == 2 else rng.uniform(0.8, 1.4)), sp)
+        H = _snap(k * rng.uniform(0.8, 1.4), sp)
+        D = _snap(k * rng.uniform(0.6, 1.2), sp) if d == 3 else None
         lo = [0.0, 0.0] + ([0.0] if d == 3 else [])
         hi = [W, H] + ([D] if d == 3 else [])
-        top = [W, H + 0.6] + ([D] if d == 3 else [])
+        top = [W, _snap(H + 0.6 * k, sp)] + ([D] if d == 3 else [])
         walls["tank"] = {"shape": "box", "min": lo, "max": top, "hollow": True, "open_top": False}
         dom_lo, dom_hi = list(lo), list(top)
         region_lo, region_hi = np.array(lo), np.array(hi)
     else:
-        R = _snap(rng.uniform(0.6, 0.9) if d == 2 else rng.uniform(0.5, 0.7), sp)
+        R = _snap(k * (rng.uniform(0.6, 0.9) if d == 2 else rng.uniform(0.5, 0.7)), sp)
         c = [0.0, 0.0] + ([0.0] if d == 3 else [])
         walls["bowl"] = {"shape": "bowl", "center": c, "radius": R}
-        dom_lo = [-R - 0.3, -0.2] + ([-R - 0.3] if d == 3 else [])
-        dom_hi = [R + 0.3, R + 0.6] + ([R + 0.3] if d == 3 else [])
+        m = _snap(0.3 * k, sp)
+        dom_lo = [-R - m, -_snap(0.2 * k, sp)] + ([-R - m] if d == 3 else [])
+        dom_hi = [R + m, R + _snap(0.6 * k, sp)] + ([R + m] if d == 3 else [])
         walls["box"] = {"shape": "box", "min": list(dom_lo), "max": list(dom_hi), "hollow": True,
                         "open_top": False}
         region_lo = np.array([-R, 0.0] + ([-R] if d == 3 else []))
@@ -117,17 +128,17 @@ def _draw(rng, seed, cfg, sp) -> dict:
     gap = 3 * sp
     for k in range(n_obs):
         kind = str(rng.choice(["sphere", "cylinder", "box", "mesh"]))
-        size = float(rng.uniform(0.08, 0.18))
+        size = k * float(rng.uniform(0.08, 0.18))
         if kind == "sphere":
             spec = {"shape": "sphere", "radius": round(size, 3)}
             half = np.full(d, size)
         elif kind == "cylinder":
-            hgt, axis = float(rng.uniform(0.2, 0.5)), int(rng.choice([1, 2] if d == 3 else [1]))
+            hgt, axis = k * float(rng.uniform(0.2, 0.5)), int(rng.choice([1, 2] if d == 3 else [1]))
             spec = {"shape": "cylinder", "radius": round(size, 3), "height": round(hgt, 3), "axis": axis}
             half = np.full(d, size)
             half[axis] = hgt / 2
         elif kind == "box":
-            half = np.round(rng.uniform(0.06, 0.18, d), 3)
+            half = np.round(k * rng.uniform(0.06, 0.18, d), 3)
             spec = {"shape": "box"}
         else:
             spec = {"shape": "mesh", "file": str(rng.choice(MESH_ASSETS)), "scale": round(size, 3)}
