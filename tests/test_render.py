@@ -230,3 +230,14 @@ def test_nan_positions_of_a_diverged_rollout_are_skipped(tmp_path, traj3d):
     assert len(fig.renderers[1].present(2)) == traj3d.n_particles - 5
     assert fig.renderers[1].draw(2).shape == (cam.height, cam.width, 3)
     assert 0 < fig.error_mm(2) < 1.0 and fig.error_mm(1) == 0.0
+
+
+def test_titles_shrink_then_shorten_to_fit():
+    from dcdc.render.overlay import fit_text, font
+    from PIL import Image, ImageDraw
+    d = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+    assert fit_text("short", 500, 14) == ("short", 14)
+    text, fs = fit_text("a rather long title for a narrow panel", 120, 14)
+    assert d.textlength(text, font=font(fs)) <= 120 and fs >= 9
+    text, fs = fit_text("a rather long title for a narrow panel of forty pixels", 40, 14)
+    assert "…" in text and fs == 9 and d.textlength(text, font=font(fs)) <= 40

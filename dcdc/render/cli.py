@@ -67,7 +67,7 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
                    azimuth, elevation, distance, zoom, cut, no_walls, supersample, palette,
                    overwrite, no_progress):
     """Render TRAJ as an animation, a strip of time points, or compared with another."""
-    from .figures import Figure, open_trajectory, select_frames, strip_frames
+    from .figures import Figure, describe, open_trajectory, select_frames, strip_frames
     from .frames import default_camera
     from .output import atomic_file, check_output
     from .video import FrameWriter, output_kind
@@ -86,6 +86,8 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
     camera = default_camera(trajs[0], width, height, azimuth=azimuth, elevation=elevation,
                             distance=distance, zoom=zoom)
     fig = Figure.build(trajs, camera, cut, supersample, not no_walls)
+    if compare:  # the two may share a name: say which file is which
+        fig.labels = [f"{describe(t)} — {p}" for t, p in zip(trajs, compare)]
     n_common = min(t.n_frames for t in trajs)
     if compare:
         import numpy as np

@@ -98,10 +98,27 @@ def legend_band(width: int, phases, ppm: float | None = None, dim: int = 2,
     return np.asarray(im)
 
 
-def title_band(width: int, text: str, size: int | None = None) -> np.ndarray:
+def fit_text(text: str, width: float, size: int, min_size: int = 9) -> tuple[str, int]:
+    """``text`` at the largest size down to ``min_size`` that fits ``width`` pixels, else at
+    ``min_size`` shortened in the middle with an ellipsis."""
     from PIL import Image, ImageDraw
-    fs = size or font_size(width)
-    h = int(fs * 1.8)
+    d = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+    for fs in range(size, min_size - 1, -1):
+        if d.textlength(text, font=font(fs)) <= width:
+            return text, fs
+    fs, keep = min_size, len(text)
+    while keep > 2 and d.textlength(short := text[:keep // 2] + "…" + text[-(keep - keep // 2):],
+                                    font=font(fs)) > width:
+        keep -= 1
+    return (short if keep > 2 else "…"), fs
+
+
+def title_band(width: int, text: str, size: int | None = None) -> np.ndarray:
+    """A white band ``text`` centred in it (shrunk or shortened to fit)."""
+    from PIL import Image, ImageDraw
+    size = size or font_size(width)
+    h = int(size * 1.8)
+    text, fs = fit_text(text, width - size, size)
     im = Image.new("RGB", (width, h), PAPER)
     ImageDraw.Draw(im).text((width // 2, h // 2), text, fill=INK, font=font(fs), anchor="mm")
     return np.asarray(im)
