@@ -249,6 +249,7 @@ def test_run_directory_and_data_mismatches_are_refused(tmp_path):
     with pytest.raises(DcdcError, match="trained for particle radius 0.0125 m but training "
                                         "dataset .* has 0.025 m"):
         Trainer(tiny("model.particle_radius=0.0125"), tmp_path / "r2")
+    assert not (tmp_path / "r2").exists()  # refused before anything was written
     with pytest.raises(DcdcError, match="steps dt = 0.01 s but training dataset"):
         Trainer(tiny("model.frame_dt=0.01"), tmp_path / "r3")
     (tmp_path / "file").write_text("x")

@@ -118,12 +118,20 @@ def checkpoints(run: Path) -> list[Path]:
     return sorted((run / CKPT_DIR).glob("step_*.pt"), reverse=True)
 
 
-def _prepare_run(run: Path, resume: bool) -> None:
+def _check_run(run: Path, resume: bool) -> None:
+    """Refuse an unusable or already used run directory (before any work, no side effects)."""
     if run.exists() and not run.is_dir():
         raise DcdcError(f"--out {run} is a file, not a directory")
     if run.is_dir() and not resume and ((run / "config.toml").exists() or checkpoints(run)):
         raise DcdcError(f"{run} already holds a training run; pass --resume to continue it "
                         f"or choose another --out")
+    parent = next((p for p in [run, *run.parents] if p.exists()), None)
+    if parent is not None and (not parent.is_dir() or not os.access(parent, os.W_OK)):
+        raise DcdcError(f"cannot create the run directory {run}: {parent} is not a "
+                        f"writable directory")
+
+
+def _make_run(run: Path) -> None:
     try:
         (run / CKPT_DIR).mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -205,8 +213,7 @@ class Trainer:
             raise DcdcError(f"data.batch_scenes ({cfg.data.batch_scenes}) must be at least the "
                             f"number of ranks ({self.dist.world})")
         if self.dist.main:
-            _prepare_run(self.run_dir, resume)
-        self._barrier()
+            _check_run(self.run_dir, resume)
 
         self.train_ds = Dataset(cfg.data.train)
         self.info = dataset_info(self.train_ds, "training dataset")
@@ -234,6 +241,9 @@ class Trainer:
         self.step = 0
         self.best_val = math.inf
         self.wall_time = 0.0
+        if self.dist.main:  # the data and the network are fine: now the run directory
+            _make_run(self.run_dir)
+        self._barrier()
         if resume:
             self._resume()
         self.model = self.net
