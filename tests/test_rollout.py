@@ -1,0 +1,223 @@
+"""dcdc.evaluate.rollout (NeuralSimulator, guard, emitters) and `dcdc simulate`."""
+import json
+
+import h5py
+import numpy as np
+import pytest
+import torch
+
+from dcdc.cli import main
+from dcdc.data.dataset import Dataset
+from dcdc.errors import DcdcError
+from dcdc.evaluate.rollout import Guard, NeuralSimulator, RolloutStopped, run
+from dcdc.model.checkpoint import save_checkpoint
+from dcdc.model.networks import build_network
+from dcdc.particles import ParticleSystem, Phase
+
+SAMPLE = "data/sample/train2d"
+DT, G = 0.02, -9.81
+
+
+def zero_net(dim=2, **cfg):
+    """A network whose correction is exactly 0: a rollout is then ballistic (eq. 2)."""
+    net = build_network("cconv", dim, **cfg)
+    for p in net.parameters():
+        p.data.zero_()
+    return net
+
+
+def box_system(x, v, birth=None, phase=None, walls=True):
+    """2-D fluid particles over a floor of wall particles at y = 0 (3 layers, normals up)."""
+    x = np.asarray(x, dtype=float)
+    xs = np.arange(-20, 21) * 0.05
+    wx = np.array([(a, -k * 0.05) for a in xs for k in range(3)]) if walls else np.zeros((0, 2))
+    wn = np.tile([0.0, 1.0], (len(wx), 1))
+    return ParticleSystem(2, 0.025, x, np.asarray(v, dtype=float),
+                          np.zeros(len(x), int) if phase is None else phase,
+                          [Phase("water", 1000.0), Phase("heavy", 3000.0)], wx, wn, (0, G),
+                          ((-1.0, -0.5), (1.0, 2.0)), birth)
+
+
+def ballistic(x, v, n):
+    """n steps of Algorithm 1 with Δx = 0: x' = x + Δt v + ½ Δt² g, v' = (x' − x)/Δt."""
+    x, v = np.array(x, float), np.array(v, float)
+    g = np.array([0.0, G])
+    for _ in range(n):
+        x_new = x + DT * v + 0.5 * DT * DT * g
+        x, v = x_new, (x_new - x) / DT
+    return x, v
+
+
+def test_ballistic_steps_and_emitter():
+    x0 = np.array([[0.0, 1.0], [0.3, 1.2], [0.5, 1.5]])
+    v0 = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, -1.0]])
+    sy = box_system(x0.copy(), v0.copy(), birth=[0.0, 0.0, 0.05])  # advanced in place
+    sim = NeuralSimulator(zero_net(), sy)
+    st = sim.advance(0.04)  # two steps; the third particle is not born yet
+    assert st["steps"] == 2 and sim.time == pytest.approx(0.04) and st["active"] == 2
+    x2, v2 = ballistic(x0[:2], v0[:2], 2)
+    assert sim.system.x[:2] == pytest.approx(x2, abs=1e-5)
+    assert sim.system.v[:2] == pytest.approx(v2, abs=1e-4)
+    assert sim.system.x[2] == pytest.approx(x0[2]) and sim.system.v[2] == pytest.approx(v0[2])
+    sim.advance(0.02)  # t = 0.04 < birth 0.05: still waiting
+    assert sim.stats["active"] == 2 and sim.system.x[2] == pytest.approx(x0[2])
+    sim.advance(0.04)  # born at the step that starts at t = 0.06: two steps since
+    assert sim.stats["active"] == 3
+    assert sim.system.x[2] == pytest.approx(ballistic(x0[2:], v0[2:], 2)[0][0], abs=1e-5)
+
+
+def test_frame_dt_must_be_a_multiple_of_the_step():
+    sim = NeuralSimulator(zero_net(), box_system([[0, 1.0]], [[0, 0]]))
+    with pytest.raises(DcdcError, match="not a multiple"):
+        sim.advance(0.03)
+    with pytest.raises(DcdcError, match="> 0"):
+        sim.advance(0.0)
+
+
+@pytest.mark.parametrize("case", ["dim", "density_len", "density_neg", "dt", "radius", "frame_dt"])
+def test_inputs_rejected_with_one_line(case):
+    sy = box_system([[0, 1.0], [0.1, 1.0]], [[0, 0], [0, 0]])
+    kw, net = {}, zero_net()
+    if case == "dim":
+        net = zero_net(3)
+    elif case == "density_len":
+        kw["density"] = [1000.0]
+    elif case == "density_neg":
+        kw["density"] = [1000.0, -5.0]
+    elif case == "dt":
+        kw["dt"] = 0.0
+    elif case == "radius":
+        net = zero_net(particle_radius=0.05)
+    elif case == "frame_dt":
+        kw["dt"] = 0.01
+    with pytest.raises(DcdcError) as e:
+        NeuralSimulator(net, sy, **kw)
+    assert "\n" not in str(e.value)
+
+
+def _stop(sim, n=20):
+    with pytest.raises(RolloutStopped) as e:
+        for _ in range(n):
+            sim.step()
+    return e.value
+
+
+def test_guard_speed_domain_nan():
+    sy = box_system([[0, 1.0], [0.2, 1.0]], [[0, 0], [60.0, 0]])
+    e = _stop(NeuralSimulator(zero_net(), sy))
+    assert (e.cause, e.particle, e.step) == ("speed", 1, 1)
+    sy = box_system([[0, 1.0], [0.9, 1.0]], [[0, 0], [5.0, 0]])
+    e = _stop(NeuralSimulator(zero_net(), sy))
+    assert e.cause == "domain" and e.particle == 1 and e.step == 2  # 0.9 + 0.1 + 0.1 > 1
+    net = zero_net()
+    net.denses[-1].bias.data[:] = float("nan")
+    e = _stop(NeuralSimulator(net, box_system([[0, 1.0]], [[0, 0]])))
+    assert e.cause == "nan" and "step 1" in str(e) and "\n" not in str(e)
+
+
+def test_guard_walls_and_penetration_count():
+    # particle 1 falls through the floor at 3 m/s: inside the wall shell after 2 steps
+    x = [[0.0, 1.0], [0.3, 0.12]]
+    v = [[0.0, 0.0], [0.0, -3.0]]
+    e = _stop(NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=0.0)))
+    assert e.cause == "walls" and e.particle == 1
+    sim = NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=1.0))
+    ro = run(sim, 3)
+    assert ro.stopped is None and ro.steps == 3
+    assert ro.in_walls.tolist()[0] == 0 and ro.in_walls.max() == 1
+
+
+def test_run_records_the_stop_and_keeps_good_frames():
+    sy = box_system([[0, 1.0], [0.9, 1.0]], [[0, 0], [5.0, 0]])
+    ro = run(NeuralSimulator(zero_net(), sy), 10)
+    assert ro.stopped is not None and ro.stopped.cause == "domain"
+    assert ro.steps == 1 and ro.position.shape == (2, 2, 2)
+    assert ro.time == pytest.approx([0.0, 0.02])
+
+
+def test_starts_from_a_dataset_frame():
+    traj = Dataset(SAMPLE)[0]
+    # ballistic, some particles fly into and through the walls: only NaN/speed guard here
+    sim = NeuralSimulator(zero_net(), traj.system(10), time=float(traj.time[10]),
+                          guard=Guard(max_in_walls=1.0, check_domain=False))
+    ro = run(sim, 2)
+    assert ro.steps == 2 and ro.time == pytest.approx(traj.time[10:13])
+    x2, _ = ballistic(traj.position[10], traj.velocity[10], 2)
+    assert ro.position[0] == pytest.approx(traj.position[10])
+    assert ro.position[2] == pytest.approx(x2, abs=1e-5)
+
+
+# ---------------------------------------------------------------------------- CLI
+@pytest.fixture(scope="module")
+def ckpts(tmp_path_factory):
+    d = tmp_path_factory.mktemp("ck")
+    torch.manual_seed(0)
+    save_checkpoint(d / "m2.pt", build_network("cconv", 2))
+    save_checkpoint(d / "m3.pt", build_network("cconv", 3))
+    save_checkpoint(d / "zero.pt", zero_net())
+    return d
+
+
+def _cli(args, capsys):
+    """(exit status, stdout, stderr) of ``dcdc ARGS``."""
+    code = 0
+    try:
+        main(args)
+    except SystemExit as e:
+        code = e.code or 0
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_simulate_dataset_writes_the_dataset_layout(ckpts, tmp_path, capsys):
+    out = tmp_path / "r.h5"
+    traj = Dataset(SAMPLE)[0]
+    args = ["simulate", "--model", str(ckpts / "m2.pt"), "--dataset", SAMPLE, "--trajectory",
+            traj.name, "--steps", "3", "--max-in-walls", "1", "--out", str(out)]
+    assert _cli(args, capsys)[0] == 0
+    ds = Dataset(out)
+    r = ds[traj.name]
+    assert r.n_frames == 4 and r.n_particles == traj.n_particles
+    assert r.position[0] == pytest.approx(traj.position[0])
+    assert (r.phase == traj.phase).all() and r.wall_x.shape == traj.wall_x.shape
+    assert r.attrs["solver"].startswith("dcdc.neural") and r.attrs["split"] == "rollout"
+    stats = json.loads(r.attrs["solver_stats"])
+    assert stats["steps"] == 3 and len(stats["in_walls"]) == 3 and stats["stopped"] == ""
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp file left
+    code, _, err = _cli(args, capsys)  # exists: refused without --overwrite
+    assert code == 2 and err.startswith("error:") and "--overwrite" in err
+
+
+def test_simulate_scene_guard_stop_is_written_and_reported(ckpts, tmp_path, capsys):
+    out = tmp_path / "fall.h5"
+    code, _, err = _cli(["simulate", "--model", str(ckpts / "zero.pt"), "--scene", "dam_break",
+                         "--dim", "2", "--steps", "200", "--max-in-walls", "0", "--out",
+                         str(out)], capsys)
+    # the ballistic (untrained, zero) model lets the column fall into the floor
+    report = err.strip().split("\n")[-1]  # after the progress bar
+    assert code == 2 and report.startswith("error: neural rollout stopped at step")
+    assert "inside a wall" in report and err.count("error:") == 1
+    with h5py.File(out) as f:
+        g = f[next(iter(f))]
+        stats = json.loads(g.attrs["solver_stats"])
+        assert stats["stop_cause"] == "walls" and stats["stop_step"] == g["position"].shape[0]
+
+
+@pytest.mark.parametrize("args,msg", [
+    (["--scene", "dam_break", "--dataset", SAMPLE], "exactly one"),
+    (["--dataset", SAMPLE], "--trajectory"),
+    (["--dataset", SAMPLE, "--trajectory", "random_0_2d", "--dim", "2"], "--dim"),
+    (["--dataset", SAMPLE, "--trajectory", "random_0_2d", "--steps", "0"], "--steps"),
+    (["--dataset", SAMPLE, "--trajectory", "nope"], "no trajectory"),
+])
+def test_simulate_bad_arguments(ckpts, tmp_path, capsys, args, msg):
+    code, _, err = _cli(["simulate", "--model", str(ckpts / "m2.pt"), *args, "--out",
+                         str(tmp_path / "x.h5")], capsys)
+    assert code == 2 and err.startswith("error:") and msg in err and err.count("\n") == 1
+
+
+def test_simulate_3d_model_on_2d_data(ckpts, tmp_path, capsys):
+    code, _, err = _cli(["simulate", "--model", str(ckpts / "m3.pt"), "--dataset", SAMPLE,
+                         "--trajectory", "random_0_2d", "--out", str(tmp_path / "x.h5")], capsys)
+    assert code == 2 and "3-D" in err and "2-D" in err
+    assert not (tmp_path / "x.h5").exists()
