@@ -20,25 +20,27 @@ DEMO_SCENE = "cocktail"
 DEMO_RESOLUTION = 2.0  # the 2-D cocktail section at scale 1 holds only ~400 particles
 
 
-def stratification(traj, frame: int) -> list[tuple[str, float, float]]:
-    """(phase, rest density, median height) per phase at ``frame``, lightest phase first.
+def _active(traj, frame: int):
+    return traj.birth <= traj.time[frame] + 1e-9
 
-    The median says where the bulk of a phase sits; a mean is dragged by the few droplets a
-    phase leaves trapped under the others."""
-    y = traj.position[frame][:, 1]
-    active = traj.birth <= traj.time[frame] + 1e-9
-    rows = []
-    for k, p in enumerate(traj.phases):
-        sel = (traj.phase == k) & active
-        if sel.any():
-            rows.append((p.name, p.density, float(np.median(y[sel]))))
+
+def stratification(traj, frame: int) -> list[tuple[str, float, float]]:
+    """(phase, rest density, median height) per phase at ``frame``, lightest phase first
+    (:func:`dcdc.metrics.phase_heights` of the particles present; the median says where
+    the bulk of a phase sits, a mean is dragged by the few droplets trapped under others)."""
+    from .metrics import phase_heights
+    h = phase_heights(traj.position[frame], traj.phase, len(traj.phases), "median",
+                      active=_active(traj, frame))
+    rows = [(p.name, p.density, float(h[k])) for k, p in enumerate(traj.phases) if np.isfinite(h[k])]
     return sorted(rows, key=lambda r: r[1])
 
 
-def ordered(rows) -> bool:
-    """Heavier phases lie lower: median heights decrease with density."""
-    heights = [h for _, _, h in rows]
-    return all(a > b for a, b in zip(heights, heights[1:]))
+def order_ok(traj, frame: int = -1) -> bool:
+    """The demo's final check, :func:`dcdc.metrics.density_order_ok` (median heights):
+    every phase lies below every lighter one."""
+    from .metrics import density_order_ok
+    return density_order_ok(traj.position[frame], traj.phase, [p.density for p in traj.phases],
+                            "median", active=_active(traj, frame))
 
 
 @click.command("demo")
@@ -92,12 +94,12 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         write_points(tmp / names[3], traj.position[-1],
                      {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
         rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
+        ok = order_ok(traj)
     click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
     click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
     for (name, rho, y0), (_, _, y1) in zip(rows0, rows1):
         click.echo(f"{name:<12}{rho:>10g}{y0:>16.3f}{y1:>14.3f}")
-    ok = ordered(rows1)
     click.echo(f"final order heavy-below: {'yes' if ok else 'NO'}")
     for name in names:
         click.echo(f"wrote {out / name}")

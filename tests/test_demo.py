@@ -5,7 +5,7 @@ import sys
 import numpy as np
 
 from dcdc.data.dataset import Dataset, is_complete
-from dcdc.demo import ordered, stratification
+from dcdc.demo import order_ok, stratification
 
 
 def test_demo_writes_complete_outputs(tmp_path):
@@ -47,5 +47,7 @@ class _Traj:
 
 
 def test_stratification_order():
-    assert ordered(stratification(_Traj([1.0, 1.2, 0.1, 0.2]), 0))
-    assert not ordered(stratification(_Traj([0.1, 0.2, 1.0, 1.2]), 0))
+    assert order_ok(_Traj([1.0, 1.2, 0.1, 0.2]), 0)
+    assert not order_ok(_Traj([0.1, 0.2, 1.0, 1.2]), 0)
+    assert [r[0] for r in stratification(_Traj([0.1, 0.2, 1.0, 1.2]), 0)] == ["light", "heavy"]
+    assert stratification(_Traj([0.1, 0.3, 1.0, 1.2]), 0)[0][2] == 0.2  # median height
