@@ -1,0 +1,124 @@
+"""dcdc.evaluate.scores and `dcdc evaluate` against the sample SPH trajectories."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from dcdc import metrics as M
+from dcdc.cli import main
+from dcdc.data.dataset import Dataset
+from dcdc.evaluate.rollout import Guard
+from dcdc.evaluate.scores import aggregate, number_density, one_two_step_errors, score_trajectory
+from dcdc.model.checkpoint import save_checkpoint
+from dcdc.model.networks import build_network
+
+SAMPLE = "data/sample/test2d"
+DT = 0.02
+
+
+def zero_net(dim=2):
+    net = build_network("cconv", dim)
+    for p in net.parameters():
+        p.data.zero_()
+    return net
+
+
+def test_n1_n2_errors_of_the_ballistic_model_by_hand():
+    traj = Dataset(SAMPLE)["random_200000_2d"]
+    e1, e2, starts = one_two_step_errors(zero_net(), traj, stride=5)
+    g = traj.gravity
+    ref1, ref2 = [], []
+    for f in range(0, traj.n_frames - 2, 5):
+        x, v = traj.position[f].astype(float), traj.velocity[f].astype(float)
+        x1 = x + DT * v + 0.5 * DT * DT * g
+        v1 = (x1 - x) / DT
+        x2 = x1 + DT * v1 + 0.5 * DT * DT * g
+        ref1.append(np.linalg.norm(x1 - traj.position[f + 1], axis=1).mean())
+        ref2.append(np.linalg.norm(x2 - traj.position[f + 2], axis=1).mean())
+    assert starts == len(range(0, traj.n_frames - 2, 5)) == 10
+    assert e1 == pytest.approx(np.mean(ref1), rel=1e-4)
+    assert e2 == pytest.approx(np.mean(ref2), rel=1e-4)
+
+
+def test_number_density_is_one_inside_a_lattice():
+    g = (np.arange(11) - 5) * 0.05
+    x = np.array([(a, b) for a in g for b in g])
+    psi, V0 = number_density(x, 0.025, np.zeros((0, 2)))
+    centre = np.flatnonzero((np.abs(x) < 1e-9).all(1))[0]
+    assert psi[centre] == pytest.approx(1.0, abs=1e-9)
+    corner = np.argmin(x.sum(1))
+    assert psi[corner] < 0.75 and psi.max() == pytest.approx(1.0)  # corners miss neighbours
+    assert V0 == pytest.approx(0.05 ** 2, rel=0.01)
+
+
+def test_score_trajectory_fields_and_truth_metrics():
+    traj = Dataset(SAMPLE)["random_200000_2d"]
+    r = score_trajectory(zero_net(), traj, stride=10, steps=4,
+                         guard=Guard(max_in_walls=1.0, check_domain=False))
+    assert r["steps"] == 4 and r["stable"] and r["steps_to_failure"] is None
+    assert len(r["curves"]["rollout_mm"]) == 4 == len(r["curves"]["in_walls"])
+    # the ground truth's own numbers are the metrics of its frame 4
+    x4 = traj.position[4].astype(float)
+    assert r["purity_true"] == pytest.approx(M.neighbour_purity(x4, traj.phase, 0.1))
+    floor = traj.attrs["domain_min"][1]
+    assert r["com_height_true"] == pytest.approx(
+        M.phase_heights(x4, traj.phase, len(traj.phases)) - floor)
+    # a rollout error never exceeds the matched position error (nearest <= matched)
+    assert all(a <= b + 1e-9 for a, b in zip(r["curves"]["rollout_mm"], r["curves"]["position_mm"]))
+    assert r["err_n1_mm"] < r["err_n2_mm"]
+    json.dumps(r)  # plain JSON types only
+
+
+def test_aggregate():
+    rows = [{"err_n1_mm": 1.0, "rollout_mm": None, "order_ok": True, "order_ok_true": True,
+             "stable": True, "steps": 10},
+            {"err_n1_mm": 3.0, "rollout_mm": 4.0, "order_ok": False, "order_ok_true": True,
+             "stable": False, "steps": 6}]
+    a = aggregate(rows)
+    assert a["err_n1_mm"] == 2.0 and a["rollout_mm"] == 4.0 and a["sinkhorn_mm"] is None
+    assert a["order_ok"] == 0.5 and a["stable"] == 1 and a["steps_min"] == 6
+
+
+@pytest.fixture(scope="module")
+def ckpts(tmp_path_factory):
+    d = tmp_path_factory.mktemp("ck")
+    torch.manual_seed(0)
+    save_checkpoint(d / "trained.pt", build_network("dcdc", 2))
+    save_checkpoint(d / "zero.pt", zero_net())
+    save_checkpoint(d / "m3.pt", build_network("cconv", 3))
+    return d
+
+
+def _cli(args, capsys):
+    code = 0
+    try:
+        main(args)
+    except SystemExit as e:
+        code = e.code or 0
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_evaluate_cli_two_models_json_and_plots(ckpts, tmp_path, capsys):
+    js, plots = tmp_path / "e.json", tmp_path / "plots"
+    args = ["evaluate", "--model", str(ckpts / "trained.pt"), "--model", str(ckpts / "zero.pt"),
+            "--data", SAMPLE, "--trajectory", "random_200001_2d", "--steps", "3",
+            "--max-in-walls", "1", "--json", str(js), "--plots", str(plots)]
+    code, out, err = _cli(args, capsys)
+    assert code == 0, err
+    assert "| random_200001_2d | trained |" in out and "| random_200001_2d | zero |" in out
+    assert "SPH (truth)" in out and "**all**" in out
+    res = json.loads(js.read_text())
+    assert set(res["trajectories"]["random_200001_2d"]) == {"trained", "zero"}
+    assert set(res["aggregate"]) == {"trained", "zero"}
+    assert (plots / "random_200001_2d.png").stat().st_size > 1000
+    code, _, err = _cli(args, capsys)  # the JSON exists now
+    assert code == 2 and "--overwrite" in err
+
+
+def test_evaluate_cli_refuses_a_mismatched_model_before_work(ckpts, tmp_path, capsys):
+    code, out, err = _cli(["evaluate", "--model", str(ckpts / "m3.pt"), "--data", SAMPLE,
+                           "--json", str(tmp_path / "e.json")], capsys)
+    assert code == 2 and err.startswith("error:") and "3-D" in err and err.count("\n") == 1
+    assert not (tmp_path / "e.json").exists()
