@@ -187,7 +187,7 @@ def check_duration(duration: float | None, frame_dt: float = 0.02, what: str = "
     if duration is None:
         return
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise DcdcError(f"{what} must be a positive number of seconds (got {duration})")
+        raise DcdcError(f"{what} must be a finite positive number of seconds (got {duration})")
     if int(round(duration / frame_dt)) < 1:
         raise DcdcError(f"{what} {duration:g} s is shorter than one frame ({frame_dt:g} s): "
                         "nothing would be simulated")

@@ -89,7 +89,7 @@ def physical_memory() -> float | None:
 
 
 def _human(n: float) -> str:
-    return f"{n:.3g}" if n < 1e6 else f"{n:.2e}".replace("e+0", "e").replace("e+", "e")
+    return f"{int(n):,}" if n < 1e6 else f"{n:.2e}".replace("e+0", "e").replace("e+", "e")
 
 
 def _gib(nbytes: float) -> str:
