@@ -17,10 +17,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import os
 import types
 import typing
 from pathlib import Path
+
+import numpy as np
 
 from .errors import DcdcError
 
@@ -97,15 +100,16 @@ def coerce(v, tp, name: str):
             return v
         return from_dict(tp, v, name + ".")
     if tp is bool:
-        if not isinstance(v, bool):
+        if not isinstance(v, (bool, np.bool_)):
             raise DcdcError(f"{name} must be true or false (got {v!r})")
-        return v
-    if tp is int:
-        if isinstance(v, bool) or not isinstance(v, int):
+        return bool(v)
+    if tp is int:  # numpy integers too; never a bool or a float such as 4.0
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral):
             raise DcdcError(f"{name} must be an integer (got {v!r})")
-        return v
+        return int(v)
     if tp is float:
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real) \
+                or not math.isfinite(v):
             raise DcdcError(f"{name} must be a finite number (got {v!r})")
         return float(v)
     if tp is str:
@@ -113,6 +117,8 @@ def coerce(v, tp, name: str):
             raise DcdcError(f"{name} must be a string (got {v!r})")
         return v
     if tp in (tuple, list) or origin in (tuple, list):
+        if isinstance(v, np.ndarray) and v.ndim == 1:
+            v = v.tolist()
         if not isinstance(v, (list, tuple)):
             raise DcdcError(f"{name} must be a list (got {v!r})")
         item = args[0] if args else None
