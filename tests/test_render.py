@@ -192,7 +192,7 @@ def test_render_refuses_bad_requests(tmp_path, capsys):
     out.write_bytes(b"old")
     h5 = f"{SAMPLE}/hourglass_2d.h5"
     cases = [
-        (("render", h5, "--strip", "0", "--out", out), "exists (use --overwrite)"),
+        (("render", h5, "--strip", "0", "--out", out), "exists (use --overwrite"),
         (("render", SAMPLE, "--strip", "0", "--out", tmp_path / "y.png"), "choose one with --trajectory"),
         (("render", SAMPLE, "-t", "nope", "--strip", "0", "--out", tmp_path / "y.png"), "no trajectory 'nope'"),
         (("render", tmp_path / "missing.h5", "--out", tmp_path / "y.gif"), "no such"),
@@ -241,3 +241,18 @@ def test_titles_shrink_then_shorten_to_fit():
     assert d.textlength(text, font=font(fs)) <= 120 and fs >= 9
     text, fs = fit_text("a rather long title for a narrow panel of forty pixels", 40, 14)
     assert "…" in text and fs == 9 and d.textlength(text, font=font(fs)) <= 40
+
+
+@pytest.mark.parametrize("name", ["a.mp4", "a.gif", "frames"])
+def test_failed_render_leaves_nothing(tmp_path, traj3d, monkeypatch, name):
+    calls = []
+
+    def failing(self, f):
+        calls.append(f)
+        if len(calls) == 2:
+            raise DcdcError("stop here")
+        return np.full((64, 64, 3), 200, np.uint8)
+
+    monkeypatch.setattr(Figure, "frame", failing)
+    assert cli("render", traj3d.ref.file, "--width", 64, "--out", tmp_path / name, "--no-progress") == 2
+    assert list(tmp_path.iterdir()) == []  # neither the output nor a temporary

@@ -70,7 +70,7 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
     from .figures import Figure, describe, open_trajectory, select_frames, strip_frames
     from .frames import default_camera
     from .output import atomic_file, check_output
-    from .video import FrameWriter, output_kind
+    from .video import FrameWriter, frame_output, output_kind
 
     if bool(traj_path) == bool(compare):
         raise DcdcError("give either TRAJ or --compare A B")
@@ -111,17 +111,13 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
             _save_png(fig.frame(sel[0]), tmp, palette)
         click.echo(f"wrote {out}")
         return
-    writer = FrameWriter(out, _fps(trajs[0], stride, fps))
-    try:
-        with _progress(len(sel), not no_progress, "render") as bar:
-            for f in sel:
-                writer.append(fig.frame(f))
-                bar.update(1)
-        writer.close()
-    except BaseException:
-        writer.abort()
-        raise
-    click.echo(f"wrote {out} ({len(sel)} frames at {writer.fps:g} fps)")
+    rate = _fps(trajs[0], stride, fps)
+    with frame_output(out, overwrite) as tmp, FrameWriter(tmp, kind, rate) as writer, \
+            _progress(len(sel), not no_progress, "render") as bar:
+        for f in sel:
+            writer.append(fig.frame(f))
+            bar.update(1)
+    click.echo(f"wrote {out} ({len(sel)} frames at {rate:g} fps)")
 
 
 @click.command("export")
@@ -143,7 +139,8 @@ def export_command(traj_path, fmt, out, name, frames, stride, overwrite, no_prog
     check_output(out, overwrite, directory=True, replaceable=(".ply", ".vtu", ".pvd"))
     traj = open_trajectory(traj_path, name)
     sel = select_frames(traj, frames, stride)
-    with atomic_dir(out) as tmp, _progress(len(sel), not no_progress, "export") as bar:
+    with atomic_dir(out, overwrite=overwrite) as tmp, \
+            _progress(len(sel), not no_progress, "export") as bar:
         files = export_trajectory(traj, fmt, tmp, sel, bar.update,
                                   warn=lambda text: click.echo(f"note: {text}", err=True))
     click.echo(f"wrote {len(files)} files to {out}")

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.outputs import atomic_file
 from ..errors import DcdcError
 
 
@@ -44,9 +45,8 @@ def _columns(x: np.ndarray, fields: dict[str, np.ndarray]):
 def _atomic_write(path: str | os.PathLike, data: bytes) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    with atomic_file(path) as tmp:
+        Path(tmp).write_bytes(data)
     return path
 
 

@@ -201,13 +201,10 @@ def animate(traj, path, every: int = 2, fps: int = 25, width: int = 480) -> Path
     """Every ``every``-th frame of ``traj`` to a GIF, an MP4 or a folder of PNGs (by the
     name), with legend, time and scale bar."""
     from .frames import default_camera
-    from .video import FrameWriter
+    from .video import FrameWriter, frame_output, output_kind
     fig = Figure.build([traj], default_camera(traj, width))
-    writer = FrameWriter(path, fps)
-    try:
+    with frame_output(path, overwrite=True) as tmp, \
+            FrameWriter(tmp, output_kind(path), fps) as writer:
         for f in range(0, traj.n_frames, every):
             writer.append(fig.frame(f))
-        return writer.close()
-    except BaseException:
-        writer.abort()
-        raise
+    return Path(path)

@@ -1,21 +1,18 @@
 """Writers for rendered frame sequences, chosen by the output name: ``.mp4`` (H.264 through
-imageio's ffmpeg plugin; ``imageio-ffmpeg`` ships the binary), ``.gif`` (Pillow, one
+``imageio-ffmpeg``, which ships the ffmpeg binary), ``.gif`` (Pillow, one
 adaptive palette per frame) or any name without a suffix: a folder of ``frame_NNNNN.png``.
-Each writer works on a temporary name and renames on :meth:`close`; :meth:`abort` removes
-it."""
+A :class:`FrameWriter` writes to the temporary file or folder that
+:func:`dcdc.data.outputs.atomic_file` / ``atomic_dir`` hand out (see :func:`frame_output`),
+which rename it when the block ends without error."""
 from __future__ import annotations
 
-import os
-import shutil
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import DcdcError
-from .output import TMP_MARK, move_into_place, temp_name
+from .output import atomic_dir, atomic_file
 from .overlay import even
-
-VIDEO_SUFFIXES = (".mp4", ".gif")
 
 
 def output_kind(path) -> str:
@@ -29,60 +26,62 @@ def output_kind(path) -> str:
                     f"folder name for PNG frames)")
 
 
+def frame_output(path, overwrite: bool = False):
+    """The atomic context for a frame sequence at ``path``: a folder or a file."""
+    return atomic_dir(path, overwrite=overwrite) if output_kind(path) == "folder" \
+        else atomic_file(path)
+
+
 class FrameWriter:
-    def __init__(self, path, fps: float):
-        self.path, self.fps, self.count = Path(path), float(fps), 0
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        kind = output_kind(path)
+    """``with FrameWriter(tmp, kind, fps) as w: w.append(img)``: on a clean exit the GIF is
+    saved / the MP4 closed; on an error the encoder is stopped (the caller's atomic
+    context deletes the temporary output)."""
+
+    def __init__(self, tmp, kind: str, fps: float):
         if kind == "png":
-            raise DcdcError(f"{path}: a .png holds one picture (use --strip, a single frame, "
-                            f"or a folder name for a sequence)")
-        self.kind = kind
-        self._frames = []
-        if kind == "folder":
-            self.tmp = self.path.with_name(f".{self.path.name}{TMP_MARK}{os.getpid()}")
-            shutil.rmtree(self.tmp, ignore_errors=True)
-            self.tmp.mkdir()
-        else:
-            self.tmp = temp_name(self.path)
-        self._mp4 = None
+            raise DcdcError("a .png holds one picture (use --strip, a single frame, or a "
+                            "folder name for a sequence)")
+        self.tmp, self.kind, self.fps, self.count = Path(tmp), kind, float(fps), 0
+        self._gif, self._mp4 = [], None
+
+    def __enter__(self):
+        return self
 
     def append(self, img: np.ndarray) -> None:
         from PIL import Image
         if self.kind == "folder":
-            Image.fromarray(img).save(self.tmp / f"frame_{self.count:05d}.png", optimize=False)
+            Image.fromarray(img).save(self.tmp / f"frame_{self.count:05d}.png", format="PNG")
         elif self.kind == "gif":
-            self._frames.append(Image.fromarray(img).quantize(colors=255, method=Image.Quantize.MEDIANCUT))
+            self._gif.append(Image.fromarray(img).quantize(colors=255, method=Image.Quantize.MEDIANCUT))
         else:
+            img = np.ascontiguousarray(even(img))
             if self._mp4 is None:
-                import imageio.v2 as iio
-                self._mp4 = iio.get_writer(self.tmp, format="FFMPEG", fps=self.fps,
-                                           codec="libx264", quality=6, macro_block_size=1,
-                                           pixelformat="yuv420p", ffmpeg_log_level="error")
-            self._mp4.append_data(even(img))
+                import imageio_ffmpeg
+                self._size = (img.shape[1], img.shape[0])
+                self._mp4 = imageio_ffmpeg.write_frames(
+                    str(self.tmp), self._size, fps=self.fps, codec="libx264", quality=6,
+                    macro_block_size=1, pix_fmt_out="yuv420p", ffmpeg_log_level="error",
+                    output_params=["-f", "mp4"])  # the temporary name has no .mp4 suffix
+                self._mp4.send(None)
+            if (img.shape[1], img.shape[0]) != self._size:
+                raise DcdcError(f"frame size changed from {self._size} to {img.shape[1::-1]}")
+            self._mp4.send(img.tobytes())
         self.count += 1
 
-    def close(self) -> Path:
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            if self._mp4 is not None:
+                try:
+                    self._mp4.close()
+                except Exception:  # the encoder's own failure must not hide the first error
+                    pass
+            return False
         if self.count == 0:
-            self.abort()
             raise DcdcError("no frames to write")
         if self.kind == "gif":
-            first, rest = self._frames[0], self._frames[1:]
-            first.save(self.tmp, format="GIF", save_all=True, append_images=rest, loop=0,
-                       duration=max(20, int(round(1000 / self.fps))), disposal=1)
-            self._frames = []
+            self._gif[0].save(self.tmp, format="GIF", save_all=True, append_images=self._gif[1:],
+                              loop=0, duration=max(20, int(round(1000 / self.fps))), disposal=1)
+            self._gif = []
         elif self.kind == "mp4":
             self._mp4.close()
-        move_into_place(self.tmp, self.path)
-        return self.path
-
-    def abort(self) -> None:
-        if self._mp4 is not None:
-            try:
-                self._mp4.close()
-            except Exception:
-                pass
-        if self.tmp.is_dir():
-            shutil.rmtree(self.tmp, ignore_errors=True)
-        elif self.tmp.exists():
-            self.tmp.unlink()
+        return False
