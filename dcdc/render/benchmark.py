@@ -5,7 +5,9 @@ small synthetic trajectory it (and the tests) draw.
 two-phase block of particles on the rest lattice (heavy lower half, light upper half) in
 an open wall box, every particle moved by a travelling wave so that frames differ. The
 benchmark times the picture alone (:meth:`FrameRenderer.draw`) and the whole command to
-an MP4 (labels and H.264 encoding included).
+an MP4 (labels and H.264 encoding included), in frames per second and in CPU seconds per
+frame (all threads and the encoder process: on a shared machine the wall-clock rate
+depends on the load, the CPU time much less).
 """
 from __future__ import annotations
 
@@ -71,6 +73,13 @@ def block_trajectory(path, dim: int = 3, n: int = 10_000, frames: int = 10,
     return write_trajectory(Path(path), name, xs, vs, t, system, attrs)
 
 
+def _cpu() -> float:
+    """CPU seconds of this process (all threads) and its finished children (ffmpeg)."""
+    import os
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
 @click.command("render")
 @click.option("--particles", default=10_000, show_default=True, type=int)
 @click.option("--frames", default=30, show_default=True, type=int)
@@ -91,21 +100,27 @@ def benchmark_command(particles, frames, width, dim, json_path):
         cam = default_camera(traj, width)
         r = FrameRenderer(traj, cam)
         r.draw(0)  # compile
-        t0 = time.perf_counter()
+        load = os.getloadavg()[0]
+        t0, c0 = time.perf_counter(), _cpu()
         for f in range(traj.n_frames):
             r.draw(f)
-        draw_fps = traj.n_frames / (time.perf_counter() - t0)
-        t0 = time.perf_counter()
+        n = traj.n_frames
+        draw_fps, draw_cpu = n / (time.perf_counter() - t0), (_cpu() - c0) / n
+        t0, c0 = time.perf_counter(), _cpu()
         render_command.main([str(path), "--out", str(Path(tmp) / "b.mp4"), "--width",
                              str(width), "--no-progress"], standalone_mode=False)
-        total_fps = traj.n_frames / (time.perf_counter() - t0)
+        total_fps, total_cpu = n / (time.perf_counter() - t0), (_cpu() - c0) / n
         rec = {"particles": particles, "walls": len(traj.wall_x), "dim": int(dim),
-               "frames": traj.n_frames, "width": cam.width, "height": cam.height,
-               "draw_fps": round(draw_fps, 2), "render_mp4_fps": round(total_fps, 2),
-               "threads": os.cpu_count(), "load_average": os.getloadavg()[0]}
+               "frames": n, "width": cam.width, "height": cam.height,
+               "draw_fps": round(draw_fps, 2), "draw_cpu_s_per_frame": round(draw_cpu, 4),
+               "render_mp4_fps": round(total_fps, 2),
+               "render_mp4_cpu_s_per_frame": round(total_cpu, 4),
+               "cores": os.cpu_count(), "load_average_start": load,
+               "load_average_end": os.getloadavg()[0]}
     click.echo(f"{particles} particles ({dim}-D) + {rec['walls']} walls, "
-               f"{cam.width} x {cam.height} px, supersample 2")
-    click.echo(f"picture alone: {draw_fps:.1f} frames/s; "
-               f"dcdc render to MP4 (labels, encoding): {total_fps:.1f} frames/s")
+               f"{cam.width} x {cam.height} px, supersample 2, load average {load:.1f}")
+    click.echo(f"{'':<40}{'frames/s':>10}{'CPU s/frame':>14}")
+    click.echo(f"{'picture alone':<40}{draw_fps:>10.1f}{draw_cpu:>14.3f}")
+    click.echo(f"{'dcdc render to MP4 (labels, encoding)':<40}{total_fps:>10.1f}{total_cpu:>14.3f}")
     if json_path:
         Path(json_path).write_text(json.dumps(rec, indent=1) + "\n")

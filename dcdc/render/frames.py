@@ -90,6 +90,7 @@ class FrameRenderer:
                             f"{len(self.colors)} phases are stored")
         self.wall_alpha = WALL_ALPHA[traj.dim]
         self._walls = self._draw_walls() if walls and len(traj.wall_x) else None
+        self._buffers = None
 
     def _keep(self, x: np.ndarray) -> np.ndarray:
         if self.cut is None:
@@ -135,8 +136,11 @@ class FrameRenderer:
         """Frame ``f`` (or the given positions/colours) as uint8 [H, W, 3]."""
         if x is None:
             x, colors = self.fluid(f)
-        zbuf = np.full(self.shape, np.inf)
-        ids = np.full(self.shape, -1, np.int32)
+        if self._buffers is None:  # reused: fresh pages for every frame cost more than drawing
+            self._buffers = (np.empty(self.shape), np.empty(self.shape, np.int32))
+        zbuf, ids = self._buffers
+        zbuf.fill(np.inf)
+        ids.fill(-1)
         sx, sy, depth, rad = self._project(x)
         sx, sy, rad, order = splat(sx, sy, depth, rad, self.traj.radius, zbuf, ids)
         colors = np.ascontiguousarray(np.asarray(colors, np.float64).reshape(-1, 3)[order])
