@@ -5,7 +5,8 @@ signals land mid-run): SIGKILL of the parent leaves no worker behind and no new 
 appears afterwards; SIGTERM and Ctrl-C (SIGINT to the process group, as a terminal sends it)
 stop the run with exit 143 / 130, no traceback, only complete trajectories on disk, no
 temporary files, and the same command then resumes to the full set. Ctrl-C during
-``dcdc demo`` (the real SPH solver) ends in "aborted", exit 130, and leaves no output folder.
+``dcdc demo`` (the real SPH solver) ends in "aborted", exit 130, and leaves the previous
+output folder untouched.
 """
 import os
 import signal
@@ -116,12 +117,17 @@ def test_sigterm_and_ctrl_c_stop_cleanly_then_resume(tmp_path, sig, code, word):
 
 
 def test_ctrl_c_during_demo(tmp_path):
+    """An interrupted `demo --overwrite` leaves the previous run's folder as it was."""
     out = tmp_path / "demo"
-    p = start(["demo", "--scene", "lock_exchange", "--duration", "20", "--out", out])
+    out.mkdir()
+    (out / "lock_exchange_2d.gif").write_text("previous run")
+    p = start(["demo", "--scene", "lock_exchange", "--duration", "20", "--out", out, "--overwrite"])
     wait_for(lambda: any(tmp_path.glob(".demo.tmp-*")) or p.poll() is not None)
     time.sleep(3.0)  # inside numba: compiling or stepping
     os.killpg(p.pid, signal.SIGINT)
     _, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
     assert err.strip().splitlines()[-1].startswith("aborted") and "Traceback" not in err, err
-    assert not out.exists() and not list(tmp_path.glob(".*"))  # no half-written output folder
+    assert [f.name for f in out.iterdir()] == ["lock_exchange_2d.gif"]
+    assert (out / "lock_exchange_2d.gif").read_text() == "previous run"
+    assert not list(tmp_path.glob(".*"))  # the temporary folder is gone
