@@ -256,3 +256,36 @@ def test_failed_render_leaves_nothing(tmp_path, traj3d, monkeypatch, name):
     monkeypatch.setattr(Figure, "frame", failing)
     assert cli("render", traj3d.ref.file, "--width", 64, "--out", tmp_path / name, "--no-progress") == 2
     assert list(tmp_path.iterdir()) == []  # neither the output nor a temporary
+
+
+def test_triangles_cover_their_area_with_perspective_correct_depth():
+    from dcdc.render.splat import splat_triangles
+    zbuf = np.full((64, 64), np.inf)
+    rgb = np.zeros((64, 64, 3))
+    px, py = np.array([10.0, 50.0, 10.0, 5.0]), np.array([10.0, 10.0, 50.0, 5.0])
+    pz = np.array([1.0, 1.0, 3.0, -1.0])
+    tris = np.array([[0, 1, 2], [0, 1, 3]])  # the second reaches behind the camera
+    splat_triangles(px, py, pz, tris, np.array([0.5, 0.5]), np.array([1.0, 0.8, 0.6]),
+                    zbuf, rgb, 0.0)
+    covered = np.isfinite(zbuf)
+    assert abs(covered.sum() - 800) < 45           # area 40 * 40 / 2, up to the edge pixels
+    assert not covered[:9].any()                    # nothing from the skipped triangle
+    # at the centroid 1/z is the mean of the vertices' 1/z (not z itself)
+    cy, cx = 23, 23  # pixel centre (23.5, 23.5) is near the centroid (23.3, 23.3)
+    wa, wb = 1 - (23.5 - 10) / 40 * 2, (23.5 - 10) / 40
+    want = 1 / (wa * 1 + wb * 1 + (1 - wa - wb) / 3)
+    assert zbuf[cy, cx] == pytest.approx(want, rel=1e-9)
+    np.testing.assert_allclose(rgb[cy, cx], [0.5, 0.4, 0.3])
+
+
+def test_mesh_walls_are_drawn_as_surfaces(tmp_path):
+    from test_export import MESH_SCENE
+    plain = open_trajectory(block_trajectory(tmp_path / "p.h5", 3, 60, frames=1))
+    meshy = open_trajectory(block_trajectory(tmp_path / "m.h5", 3, 60, frames=1,
+                                             attrs={"scene_toml": MESH_SCENE}))
+    cam = default_camera(plain, 160)
+    a, b = (FrameRenderer(t, cam, supersample=1) for t in (plain, meshy))
+    assert [m.name for m in b.meshes] == ["rock"] and not a.meshes
+    assert np.isfinite(b._walls[0]).sum() > np.isfinite(a._walls[0]).sum()
+    assert np.any(a.draw(0) != b.draw(0))
+    assert not FrameRenderer(meshy, cam, walls=False).meshes

@@ -214,9 +214,9 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None,
     for note in notes if warn else ():
         warn(note)
     mesh_files = []
-    for name, verts, tris in meshes:
-        mesh_files.append(f"walls_mesh_{name}{ext}")
-        written.append(writer(out_dir / mesh_files[-1], verts, triangles=tris))
+    for m in meshes:
+        mesh_files.append(f"walls_mesh_{m.name}{ext}")
+        written.append(writer(out_dir / mesh_files[-1], m.vertices, triangles=m.triangles))
     for f in frames:
         active = birth <= times[f] + 1e-9
         fields = {"id": ids[active], "phase": phase[active], "density": density[active],

@@ -7,7 +7,9 @@
   in the file, z-buffered (:mod:`.splat`), only those already emitted at that time;
 * walls as a translucent grey layer (drawn once: they do not move). In 3-D only the wall
   particles whose normal faces the camera are kept, i.e. the back walls and the floor; the
-  front walls, which would hide the fluid, are cut away. ``cut=(axis, value)`` also removes
+  front walls, which would hide the fluid, are cut away. Mesh walls (:mod:`.walls`) are
+  drawn as their triangles, culled the same way, over the wall particles sampled under
+  their surface. ``cut=(axis, value)`` also removes
   fluid and walls with ``x[axis] > value`` (a labelled cut-away into the volume);
 * rendered at ``supersample`` times the size and box-filtered down (anti-aliasing).
 """
@@ -17,7 +19,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from .camera import Camera, fit_camera
-from .splat import LIGHT, MATERIAL, resolve, shade_layer, splat
+from .splat import LIGHT, MATERIAL, resolve, shade_layer, splat, splat_triangles
 
 BACKGROUND = np.array([0.975, 0.975, 0.97])
 WALL_COLOR = np.array([0.55, 0.56, 0.6])
@@ -89,7 +91,9 @@ class FrameRenderer:
             raise DcdcError(f"{traj.name}: phase index {self.phase.max()} but only "
                             f"{len(self.colors)} phases are stored")
         self.wall_alpha = WALL_ALPHA[traj.dim]
-        self._walls = self._draw_walls() if walls and len(traj.wall_x) else None
+        from .walls import wall_meshes
+        self.meshes, self.notes = wall_meshes(traj) if walls else ([], [])
+        self._walls = self._draw_walls() if walls and (len(traj.wall_x) or self.meshes) else None
         self._buffers = None
 
     def _keep(self, x: np.ndarray) -> np.ndarray:
@@ -113,7 +117,24 @@ class FrameRenderer:
         rgb = np.zeros(self.shape + (3,))
         colors = np.broadcast_to(WALL_COLOR, (len(sx), 3)).copy()
         shade_layer(ids, sx, sy, rad, colors, LIGHT, MATERIAL, rgb)
+        for mesh in self.meshes:  # nearer than the wall particles sampled under them
+            self._draw_mesh(mesh, zbuf, rgb)
         return zbuf, rgb
+
+    def _draw_mesh(self, mesh, zbuf, rgb):
+        """The triangles of a mesh wall whose fluid side faces the camera (the same cut-away
+        as for wall particles), flat-shaded, into the wall layer."""
+        cam = self.camera
+        normals = mesh.fluid_normals()
+        centres = mesh.vertices[mesh.triangles].mean(1)
+        keep = cam.faces_camera(centres, normals) & self._keep(centres)
+        px, py, pz, _ = cam.project(mesh.vertices)
+        r, u, f = cam.basis()
+        n_cam = np.stack([normals @ r, normals @ u, -(normals @ f)], 1)  # z towards the eye
+        shade = MATERIAL[0] + MATERIAL[1] * np.maximum(n_cam @ LIGHT, 0.0)
+        splat_triangles(px * self.ss, py * self.ss, pz, np.ascontiguousarray(mesh.triangles[keep]),
+                        np.ascontiguousarray(shade[keep]), WALL_COLOR, zbuf, rgb,
+                        self.traj.radius)  # the particle spheres under it poke out by r
 
     def _present(self, f: int):
         x = self.traj._get("position", f)

@@ -61,6 +61,45 @@ def splat_ids(sx, sy, depth, rad_px, rad_m, zbuf, ids, bands):
                         ids[py, px] = i
 
 
+@njit(cache=True, nogil=True)
+def splat_triangles(px, py, pz, tris, shade, color, zbuf, rgb, bias):
+    """Rasterise triangles (vertex pixel coordinates ``px``, ``py``, view depth ``pz`` > 0,
+    vertex indices ``tris`` [F, 3]) flat-shaded ``color * shade[f]`` into ``zbuf``/``rgb``
+    (nearest surface wins). Samples at pixel centres inside the triangle (either winding;
+    edges shared by two triangles are filled by both); depth interpolated perspective-
+    correctly (1/z is linear in screen space), then moved ``bias`` [m] towards the camera
+    (so a surface wins over spheres that poke through it by less). Triangles reaching
+    behind the camera are skipped."""
+    H, W = zbuf.shape
+    for f in range(tris.shape[0]):
+        a, b, c = tris[f, 0], tris[f, 1], tris[f, 2]
+        if pz[a] <= 1e-6 or pz[b] <= 1e-6 or pz[c] <= 1e-6:
+            continue
+        ax, ay, bx, by, cx, cy = px[a], py[a], px[b], py[b], px[c], py[c]
+        area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if area == 0.0:
+            continue
+        x0 = max(int(np.floor(min(ax, bx, cx))), 0)
+        x1 = min(int(np.ceil(max(ax, bx, cx))), W - 1)
+        y0 = max(int(np.floor(min(ay, by, cy))), 0)
+        y1 = min(int(np.ceil(max(ay, by, cy))), H - 1)
+        ia, ib, ic = 1.0 / pz[a], 1.0 / pz[b], 1.0 / pz[c]
+        for yy in range(y0, y1 + 1):
+            sy = yy + 0.5
+            for xx in range(x0, x1 + 1):
+                sx = xx + 0.5
+                wa = ((bx - sx) * (cy - sy) - (by - sy) * (cx - sx)) / area
+                wb = ((cx - sx) * (ay - sy) - (cy - sy) * (ax - sx)) / area
+                wc = 1.0 - wa - wb
+                if wa < 0.0 or wb < 0.0 or wc < 0.0:
+                    continue
+                d = 1.0 / (wa * ia + wb * ib + wc * ic) - bias
+                if d < zbuf[yy, xx]:
+                    zbuf[yy, xx] = d
+                    for k in range(3):
+                        rgb[yy, xx, k] = min(color[k] * shade[f], 1.0)
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _lighting(px, py, i, sx, sy, rad_px, light, material):
     """(diffuse factor, specular term) of sphere ``i`` at sample (px, py)."""

@@ -6,6 +6,7 @@ translation as the wall particles were sampled from (:mod:`dcdc.scene.format`, w
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
@@ -23,8 +24,25 @@ def _mesh_file(name: str, source: str) -> Path:
     return p if p.is_absolute() or not src.is_file() else src.parent / p
 
 
-def wall_meshes(traj) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], list[str]]:
-    """([(wall name, vertices [V, 3], triangles [F, 3])], notes on meshes not found)."""
+@dataclass
+class WallMesh:
+    name: str
+    vertices: np.ndarray   # [V, 3]
+    triangles: np.ndarray  # [F, 3] vertex indices, counter-clockwise seen from outside
+    hollow: bool           # the fluid is inside (a container), else around it
+
+    def fluid_normals(self) -> np.ndarray:
+        """Unit normal of each triangle pointing into the fluid (as wall normals do)."""
+        v = self.vertices[self.triangles]
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        if np.einsum("ij,ij->", v[:, 0], n) < 0:  # signed volume < 0: wound inside out
+            n = -n
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        return -n if self.hollow else n
+
+
+def wall_meshes(traj) -> tuple[list[WallMesh], list[str]]:
+    """The trajectory's mesh walls, and notes on meshes that cannot be found."""
     text = str(traj.attrs.get("scene_toml", "") or "")
     if traj.dim != 3 or "mesh" not in text:
         return [], []
@@ -44,5 +62,6 @@ def wall_meshes(traj) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], list[st
             notes.append(f"wall {name}: mesh {w['file']} not found; exported as particles only")
             continue
         m = load_mesh(path, w["scale"], w["translate"])
-        meshes.append((name, np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)))
+        meshes.append(WallMesh(name, np.asarray(m.vertices, np.float64),
+                               np.asarray(m.faces, np.int64), bool(w["hollow"])))
     return meshes, notes
