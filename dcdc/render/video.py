@@ -61,7 +61,9 @@ class FrameWriter:
                 self._mp4 = imageio_ffmpeg.write_frames(
                     str(self.tmp), self._size, fps=self.fps, codec="libx264", quality=6,
                     macro_block_size=1, pix_fmt_out="yuv420p", ffmpeg_log_level="error",
-                    output_params=["-f", "mp4"])  # the temporary name has no .mp4 suffix
+                    # the temporary name has no .mp4 suffix; "veryfast" halves the encoder's
+                    # CPU time against x264's default preset at a similar file size
+                    output_params=["-f", "mp4", "-preset", "veryfast"])
                 self._mp4.send(None)
             if (img.shape[1], img.shape[0]) != self._size:
                 raise DcdcError(f"frame size changed from {self._size} to {img.shape[1::-1]}")
