@@ -305,3 +305,18 @@ def test_a_non_finite_loss_stops_with_one_line(tmp_path, monkeypatch):
                         lambda *a, **k: (torch.tensor(float("nan"), requires_grad=True), [0.0, 0.0]))
     with pytest.raises(DcdcError, match="training diverged at step 1: the loss is not finite"):
         train(tiny("optim.steps=2"), tmp_path / "nan", echo=lambda *_: None)
+
+
+def test_resume_skips_a_damaged_checkpoint(tmp_path):
+    run = tmp_path / "run"
+    cfg = tiny("optim.steps=4", "log.checkpoint_every=2", "eval.every=0")
+    train(cfg, run, echo=lambda *_: None)
+    newest = checkpoints(run)[0]
+    assert newest.name == "step_00000004.pt"
+    newest.write_bytes(newest.read_bytes()[:1000])  # truncated
+    msgs = []
+    train(cfg, run, resume=True, echo=msgs.append)
+    assert any("skipping step_00000004.pt" in m for m in msgs)
+    assert any("from step_00000002.pt (step 2)" in m for m in msgs)
+    assert [int(r["step"]) for r in rows(run)] == [1, 2, 3, 4]
+    assert load_checkpoint(checkpoints(run)[0])[1]["extra"]["step"] == 4  # rewritten
