@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from .camera import Camera, fit_camera
-from .splat import LIGHT, MATERIAL, resolve, shade_layer, splat, splat_triangles
+from .splat import LIGHT, MATERIAL, clear, resolve, shade_layer, splat, splat_triangles
 
 BACKGROUND = np.array([0.975, 0.975, 0.97])
 WALL_COLOR = np.array([0.55, 0.56, 0.6])
@@ -158,10 +158,9 @@ class FrameRenderer:
         if x is None:
             x, colors = self.fluid(f)
         if self._buffers is None:  # reused: fresh pages for every frame cost more than drawing
-            self._buffers = (np.empty(self.shape), np.empty(self.shape, np.int32))
+            self._buffers = (np.empty(self.shape, np.float32), np.empty(self.shape, np.int32))
         zbuf, ids = self._buffers
-        zbuf.fill(np.inf)
-        ids.fill(-1)
+        clear(zbuf, ids)
         sx, sy, depth, rad = self._project(x)
         sx, sy, rad, order = splat(sx, sy, depth, rad, self.traj.radius, zbuf, ids)
         colors = np.ascontiguousarray(np.asarray(colors, np.float64).reshape(-1, 3)[order])

@@ -176,6 +176,15 @@ def resolve(zbuf, ids, sx, sy, rad_px, colors, light, material, wall_z, wall_rgb
             out[y, x, 2] = np.uint8(min(max(acc2 * norm, 0.0), 1.0) * 255 + 0.5)
 
 
+@njit(cache=True, nogil=True, parallel=True)
+def clear(zbuf, ids):
+    """Empty a z-buffer (+inf) and its index buffer (-1), rows in parallel."""
+    for y in prange(zbuf.shape[0]):
+        for x in range(zbuf.shape[1]):
+            zbuf[y, x] = np.inf
+            ids[y, x] = -1
+
+
 def splat(sx, sy, depth, rad_px, rad_m, zbuf, ids, bands: int | None = None):
     """:func:`splat_ids` of N spheres, nearest first; returns the per-sphere arrays in the
     order that ``ids`` refers to: (sx, sy, rad_px, order)."""

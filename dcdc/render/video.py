@@ -56,27 +56,17 @@ class FrameWriter:
         else:
             img = np.ascontiguousarray(even(img))
             if self._mp4 is None:
-                import imageio_ffmpeg
                 self._size = (img.shape[1], img.shape[0])
-                self._mp4 = imageio_ffmpeg.write_frames(
-                    str(self.tmp), self._size, fps=self.fps, codec="libx264", quality=6,
-                    macro_block_size=1, pix_fmt_out="yuv420p", ffmpeg_log_level="error",
-                    # the temporary name has no .mp4 suffix; "veryfast" halves the encoder's
-                    # CPU time against x264's default preset at a similar file size
-                    output_params=["-f", "mp4", "-preset", "veryfast"])
-                self._mp4.send(None)
+                self._mp4 = _Encoder(self.tmp, self._size, self.fps)
             if (img.shape[1], img.shape[0]) != self._size:
                 raise DcdcError(f"frame size changed from {self._size} to {img.shape[1::-1]}")
-            self._mp4.send(img.tobytes())
+            self._mp4.put(img.tobytes())
         self.count += 1
 
     def __exit__(self, exc_type, exc, tb):
         if exc_type is not None:
             if self._mp4 is not None:
-                try:
-                    self._mp4.close()
-                except Exception:  # the encoder's own failure must not hide the first error
-                    pass
+                self._mp4.close(abort=True)
             return False
         if self.count == 0:
             raise DcdcError("no frames to write")
@@ -87,3 +77,49 @@ class FrameWriter:
         elif self.kind == "mp4":
             self._mp4.close()
         return False
+
+
+class _Encoder:
+    """H.264 through ``imageio_ffmpeg.write_frames``, fed from a thread: the pipe to ffmpeg
+    blocks while it encodes, and the next frame is drawn meanwhile (numba releases the
+    GIL). At most two frames wait."""
+
+    def __init__(self, path, size, fps):
+        import queue
+        import threading
+
+        import imageio_ffmpeg
+        self._gen = imageio_ffmpeg.write_frames(
+            str(path), size, fps=fps, codec="libx264", quality=6, macro_block_size=1,
+            pix_fmt_out="yuv420p", ffmpeg_log_level="error",
+            # the temporary name has no .mp4 suffix; "veryfast" halves the encoder's CPU
+            # time against x264's default preset at a similar file size
+            output_params=["-f", "mp4", "-preset", "veryfast"])
+        self._gen.send(None)
+        self._queue, self._error = queue.Queue(maxsize=2), None
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self):
+        while (data := self._queue.get()) is not None:
+            if self._error is None:
+                try:
+                    self._gen.send(data)
+                except Exception as e:  # reported by put() / close() in the caller's thread
+                    self._error = e
+
+    def put(self, data: bytes) -> None:
+        if self._error is not None:
+            raise DcdcError(f"the video encoder failed: {self._error}")
+        self._queue.put(data)
+
+    def close(self, abort: bool = False) -> None:
+        self._queue.put(None)
+        self._thread.join()
+        try:
+            self._gen.close()
+        except Exception as e:
+            if not abort:
+                raise DcdcError(f"the video encoder failed: {e}") from None
+        if self._error is not None and not abort:
+            raise DcdcError(f"the video encoder failed: {self._error}")
