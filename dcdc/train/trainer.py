@@ -365,6 +365,15 @@ class Trainer:
         if d.main:
             save_toml(cfg.to_dict(), self.run_dir / "config.toml")
             log = MetricsLog(self.run_dir, columns, self.step, cfg.log.tensorboard)
+        if d.main:
+            r = self.sampler.ratios
+            n_par = sum(p.numel() for p in self.net.parameters())
+            self.echo(f"training {cfg.model.name} ({self.info['dim']}-D, {n_par / 1e6:.2f} M "
+                      f"parameters, r = {self.info['radius']:g} m, dt = "
+                      f"{self.info['frame_dt']:g} s) on {cfg.data.train}: {len(self.train_ds)} "
+                      f"trajectories, {len(self.sampler.windows)} windows, density ratios "
+                      f"{r.min():.3g}-{r.max():.3g}; {d.world} rank(s) on {self.device.type}; "
+                      f"run {self.run_dir}")
         from tqdm import tqdm
         bar = tqdm(total=steps, initial=self.step, unit="step", dynamic_ncols=True,
                    disable=not (self.progress and d.main), desc="train")
