@@ -11,7 +11,7 @@ from dcdc.data.dataset import Dataset
 from dcdc.errors import DcdcError
 from dcdc.model.checkpoint import load_checkpoint, read_checkpoint
 from dcdc.model.integrator import step
-from dcdc.model.networks import Scenes, build_network
+from dcdc.model.networks import build_network
 from dcdc.train.config import TrainConfig, load_config
 from dcdc.train.curriculum import CurriculumConfig, Stage, allowed, max_density_ratio
 from dcdc.train.loss import neighbour_weights, position_error, scene_mean, unrolled_loss
