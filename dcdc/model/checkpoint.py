@@ -177,7 +177,10 @@ def check_compatible(config, dim: int | None = None, radius: float | None = None
     elif isinstance(config, dict):
         d = config.get("config", config) if "state_dict" in config else config
         mdim = d.get("dim")
-        cfg = NetConfig(**{k: v for k, v in d.items() if k not in ("name", "dim")})
+        try:
+            cfg = NetConfig(**{k: v for k, v in d.items() if k not in ("name", "dim")})
+        except TypeError as e:  # a key this version does not know
+            raise DcdcError(f"model config: {e}") from None
     else:
         raise TypeError(f"check_compatible needs a network or its config, got {type(config)}")
     if dim is not None and mdim is not None and int(dim) != int(mdim):
