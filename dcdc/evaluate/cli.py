@@ -28,7 +28,7 @@ def _start_from_scene(scene: str, dim, resolution: float, model, steps, max_part
     sc = get_scene(scene)
     if dim is None:
         dim = model.dim if sc.dim == 3 else sc.dim
-    check_compatible(model, frame_dt=sc.frame_dt, what=f"scene {sc.name} (frame_dt)")
+    check_compatible(model, dim=int(dim), frame_dt=sc.frame_dt, what=f"scene {sc.name}")
     n = steps if steps is not None else max(1, int(round(sc.duration / model.cfg.frame_dt)))
     system = sc.realize(dim=int(dim), resolution=resolution, frames=n + 1,
                         max_particles=max_particles)
