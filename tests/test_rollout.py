@@ -66,6 +66,15 @@ def test_ballistic_steps_and_emitter():
     assert sim.system.x[2] == pytest.approx(ballistic(x0[2:], v0[2:], 2)[0][0], abs=1e-5)
 
 
+def test_run_like_the_sph_simulator():
+    x0, v0 = np.array([[0.0, 1.0]]), np.array([[0.5, 0.0]])
+    sim = NeuralSimulator(zero_net(), box_system(x0.copy(), v0.copy()))
+    seen = []
+    sim.run(0.12, 0.04, callback=lambda s: seen.append(round(s.time, 6)))
+    assert seen == [0.04, 0.08, 0.12] and sim.steps == 6
+    assert sim.system.x == pytest.approx(ballistic(x0, v0, 6)[0], abs=1e-5)
+
+
 def test_frame_dt_must_be_a_multiple_of_the_step():
     sim = NeuralSimulator(zero_net(), box_system([[0, 1.0]], [[0, 0]]))
     with pytest.raises(DcdcError, match="not a multiple"):

@@ -179,6 +179,15 @@ class NeuralSimulator:
                       "ms_per_step": ms / k}
         return self.stats
 
+    def run(self, duration: float, frame_dt: float | None = None, callback=None) -> None:
+        """Advance ``duration`` seconds in frames of ``frame_dt`` (default one step);
+        ``callback(sim)`` after each frame (as the SPH ``Simulator.run``)."""
+        frame_dt = self.dt if frame_dt is None else frame_dt
+        for _ in range(max(1, int(round(duration / frame_dt)))):
+            self.advance(frame_dt)
+            if callback is not None:
+                callback(self)
+
     # ------------------------------------------------------------------ guard
     def _check(self, idx: np.ndarray) -> int:
         """Guard after a step; returns the number of particles inside walls."""
