@@ -1,3 +1,5 @@
-"""Trajectory datasets: HDF5 layout and reader (:mod:`.dataset`), generation
-(:mod:`.generate`), LagrangeBench export (:mod:`.lagrangebench`). docs/datasets.md."""
+"""Trajectory datasets: HDF5 layout, reader and integrity checks (:mod:`.dataset`),
+generation (:mod:`.generate`, its worker pool :mod:`.pool`, clean Ctrl-C/SIGTERM
+:mod:`.interrupt`), output paths checked first and written atomically (:mod:`.outputs`),
+LagrangeBench export (:mod:`.lagrangebench`). docs/datasets.md."""
 from .dataset import Dataset, Trajectory, merge, write_trajectory  # noqa: F401
