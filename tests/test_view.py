@@ -74,7 +74,9 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 def test_page_plays_in_headless_chromium(tmp_path):
     out = tmp_path / "v.html"
     assert _cli("view", SAMPLE, "--html", out) == 0
-    cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+    # software WebGL (SwiftShader): CI machines have no GPU, and newer Chromium wants it asked for
+    cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
+           "--enable-unsafe-swiftshader", "--no-first-run",
            "--disable-extensions", f"--user-data-dir={tmp_path / 'profile'}",
            "--window-size=640,720", "--virtual-time-budget=3000", "--dump-dom", out.as_uri()]
     dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120).stdout
