@@ -168,15 +168,29 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
         "in_walls_mean": _finite(ro.in_walls.mean()) if len(ro.in_walls) else 0.0,
         "ms_per_step": _finite(ro.ms_per_step),
+        "s_per_simulated_s": _finite(ro.ms_per_step / 1e3 / traj.frame_dt),
+        "sph_s_per_simulated_s": _sph_cost(traj),
         "curves": {"time": ro.time[1:].tolist(), "rollout_mm": [MM * e for e in near],
                    "position_mm": [MM * e for e in perr], "ke_pred": ke_p, "ke_true": ke_t,
                    "in_walls": ro.in_walls.tolist()},
     }
 
 
+def _sph_cost(traj):
+    """Wall seconds per simulated second the SPH solver took to make ``traj`` (from its
+    metadata: generated on some machine at some time, not in this run)."""
+    try:
+        wall = float(traj.attrs.get("wall_time_s") or "nan")
+    except (TypeError, ValueError):
+        return None
+    sim = (traj.n_frames - 1) * traj.frame_dt
+    return _finite(wall / sim) if sim > 0 else None
+
+
 NUMERIC = ("err_n1_mm", "err_n2_mm", "rollout_mm", "position_mm", "sinkhorn_mm", "ke_error",
            "momentum_error", "com_height_error", "purity", "purity_true", "volume_error",
-           "density_error", "density_error_true", "in_walls_max", "ms_per_step")
+           "density_error", "density_error_true", "in_walls_max", "ms_per_step",
+           "s_per_simulated_s", "sph_s_per_simulated_s")
 
 
 def aggregate(rows: list[dict]) -> dict:
