@@ -70,20 +70,31 @@ def test_names_cannot_end_the_script():
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed (apt-get install chromium)")
-def test_page_plays_in_headless_chromium(tmp_path):
-    out = tmp_path / "v.html"
-    assert _cli("view", SAMPLE, "--html", out) == 0
+def _load(page, tmp_path, hash=""):
+    """The page's DOM after 3 s of virtual time in headless Chromium: (body data-*, DOM)."""
     # software WebGL (SwiftShader): CI machines have no GPU, and newer Chromium wants it asked for
     cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
            "--enable-unsafe-swiftshader", "--no-first-run",
            "--disable-extensions", f"--user-data-dir={tmp_path / 'profile'}",
-           "--window-size=640,720", "--virtual-time-budget=3000", "--dump-dom", out.as_uri()]
+           "--window-size=640,720", "--virtual-time-budget=3000", "--dump-dom",
+           page.as_uri() + hash]
     dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120).stdout
     body = re.search(r"<body([^>]*)>", dom)
     assert body, dom[:500]
-    attrs = dict(re.findall(r'data-(\w+)="([^"]*)"', body.group(1)))
+    return dict(re.findall(r'data-(\w+)="([^"]*)"', body.group(1))), dom
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed (apt-get install chromium)")
+def test_page_plays_in_headless_chromium(tmp_path):
+    out = tmp_path / "v.html"
+    assert _cli("view", SAMPLE, "--html", out) == 0
+    attrs, dom = _load(out, tmp_path)
     assert "error" not in attrs
     assert int(attrs["painted"]) > 200   # of 4096 probes: particles and walls on the canvas
     assert int(attrs["frame"]) > 5       # playback advanced
     assert re.search(r"<title>dcdc view: hourglass_2d frame \d+ / 50</title>", dom)
+    # paused at a chosen frame, and hiding both phases leaves only the faint walls
+    paused, _ = _load(out, tmp_path, "#frame=7")
+    assert paused["frame"] == "7"
+    hidden, _ = _load(out, tmp_path, "#frame=7&hide=0,1")
+    assert hidden["frame"] == "7" and 0 < int(hidden["painted"]) < 0.6 * int(paused["painted"])
