@@ -35,7 +35,7 @@ def _save_png(img, path, palette=None):
 
 
 @click.command("render")
-@click.argument("traj_path", metavar="TRAJ", required=False, type=click.Path())
+@click.argument("traj_path", metavar="[TRAJ]", required=False, type=click.Path())
 @click.option("--out", "-o", "out", required=True, type=click.Path(),
               help="FILE.mp4, FILE.gif, FILE.png (a --strip or a single frame) or a folder "
                    "name (one PNG per frame)")

@@ -6,8 +6,6 @@ walls grey. Trajectories are drawn by :mod:`.figures` (``dcdc render``) instead.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 
