@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass, fields
 from ..errors import DcdcError
 
 SOLVERS = ("dfsph", "wcsph")
+BOUNDARIES = ("map", "particles")
 
 
 @dataclass
@@ -29,7 +30,17 @@ class SPHConfig:
     viscosity: artificial kinematic viscosity added to every phase's own [m²/s].
     xsph: strength ε of the momentum-conserving XSPH velocity filter (damps the odd-even
         particle modes that SPH's centred divergence cannot see; 0 = off).
-    wall_viscosity: kinematic viscosity of the fluid-wall friction [m²/s] (0 = free slip).
+    no_slip: walls with friction: the Morris viscosity term against the (resting) wall
+        particles with each fluid particle's own kinematic viscosity (phase + ``viscosity``);
+        false (default): free slip, the walls push but exert no tangential force.
+    wall_buoyancy: (volume map only) extrapolate the hydrostatic pressure into the walls
+        along them (Adami et al. 2012, wall-parallel part only), so that light fluid along a
+        side wall feels its full buoyancy; off by default: in a thin 3-D tank at rest it
+        makes the walls carry part of the weight (p(H/2) = 0.85 ρgH/2, docs/sph.md).
+    boundary: how the walls enter density and pressure: "map" (a smooth volume map of the
+        solid, :mod:`dcdc.sph.volume_map`: walls push but do not grip) or "particles"
+        (Akinci et al. 2012 sums over the wall particles; their ripple grips fluid under
+        pressure, docs/sph.md).
     surface_tension: Akinci et al. 2013 cohesion γ [m/s² per same-phase pair] (0 = off).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
@@ -50,7 +61,9 @@ class SPHConfig:
     divergence_solve: bool = True
     viscosity: float = 1e-3
     xsph: float = 0.1
-    wall_viscosity: float = 0.01
+    no_slip: bool = False
+    boundary: str = "map"
+    wall_buoyancy: bool = False
     surface_tension: float = 0.0
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
@@ -62,18 +75,22 @@ class SPHConfig:
     def validate(self) -> "SPHConfig":
         if self.solver not in SOLVERS:
             raise DcdcError(f"sph.solver must be one of {', '.join(SOLVERS)} (got {self.solver!r})")
+        if self.boundary not in BOUNDARIES:
+            raise DcdcError(f"sph.boundary must be one of {', '.join(BOUNDARIES)} "
+                            f"(got {self.boundary!r})")
         positive = ("support", "cfl", "speed_floor", "dt_max", "dt_min", "density_tolerance",
                     "divergence_tolerance", "omega", "stiffness_exponent", "max_speed")
         for name in positive:
             _check_number(self, name, lambda v: v > 0, "> 0")
-        for name in ("viscosity", "xsph", "wall_viscosity", "surface_tension", "sound_speed"):
+        for name in ("viscosity", "xsph", "surface_tension", "sound_speed"):
             _check_number(self, name, lambda v: v >= 0, ">= 0")
         for name in ("min_iterations", "max_iterations"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise DcdcError(f"sph.{name} must be an integer >= 1 (got {v!r})")
-        if not isinstance(self.divergence_solve, bool):
-            raise DcdcError(f"sph.divergence_solve must be true or false (got {self.divergence_solve!r})")
+        for name in ("divergence_solve", "no_slip", "wall_buoyancy"):
+            if not isinstance(getattr(self, name), bool):
+                raise DcdcError(f"sph.{name} must be true or false (got {getattr(self, name)!r})")
         if self.support <= 2.0:
             raise DcdcError(f"sph.support must exceed 2 particle radii (got {self.support})")
         if self.cfl > 1.0:

@@ -5,18 +5,32 @@ import numpy as np
 
 from .neighbourhood import Neighbourhood
 from .state import State
-from .terms import cohesion_acceleration, viscosity_acceleration, xsph_velocity_change
+from .terms import (cohesion_acceleration, mixture_density, viscosity_acceleration,
+                    xsph_velocity_change)
 
 
-def non_pressure_acceleration(s: State, nbh: Neighbourhood, wall_viscosity: float,
+def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
                               surface_tension: float) -> np.ndarray:
-    """g + Morris viscosity (fluid-fluid, fluid-wall friction) + Akinci cohesion."""
-    a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, wall_viscosity, nbh.rs, nbh.idx, nbh.G,
+    """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + Akinci
+    cohesion."""
+    a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, no_slip, nbh.rs, nbh.idx, nbh.G,
                                s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
+    if nbh.wall_moment is not None:
+        a += wall_hydrostatic_acceleration(s, nbh)
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
     return a
+
+
+def wall_hydrostatic_acceleration(s: State, nbh: Neighbourhood) -> np.ndarray:
+    """The walls' share of the buoyancy along them: -(ρ̄_i |g| / ρ0_i) q_t(x_i), the
+    hydrostatic pressure extrapolated into the walls (Adami, Hu & Adams 2012) with the local
+    mixture density ρ̄_i = Σ_j W_ij ρ0_j / Σ_j W_ij, of which only the wall-parallel part is
+    applied (:meth:`dcdc.sph.volume_map.VolumeMap.tangential_moment`)."""
+    rho_bar = mixture_density(s.rho0, nbh.rs, nbh.idx, nbh.W)
+    g = float(np.linalg.norm(s.gravity))
+    return -(rho_bar * g / s.rho0)[:, None] * nbh.wall_moment
 
 
 def smooth_velocity(s: State, nbh: Neighbourhood, xsph: float) -> None:

@@ -1,5 +1,10 @@
 """Per-substep geometry: fluid-fluid and fluid-wall neighbour lists, kernel values and
-gradients per edge, and the compression ψ (number density × rest volume)."""
+gradients per edge, and the compression ψ (number density × rest volume).
+
+The walls' share of ψ and of the pressure operator comes either from the wall particles
+(Akinci et al. 2012: Σ_b V_b W_ib, Σ_b V_b ∇W_ib) or from a smooth volume map
+(:mod:`dcdc.sph.volume_map`: Ψ(x_i), ∇Ψ(x_i)); with a map the fluid-wall edges are only
+searched when a wall friction term needs them."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -7,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..neighbors import CellGrid, radius_search
+from .volume_map import VolumeMap
 from .terms import compression, edge_kernels, neighbour_counts, wall_gradient_sum
 
 
@@ -23,6 +29,7 @@ class Neighbourhood:
     psi: np.ndarray  # ρ_i / ρ0_i
     counts: np.ndarray  # fluid + wall neighbours
     Sb: np.ndarray  # [n, d] Σ_b V_b ∇W_ib, the walls' part of the pressure operator
+    wall_moment: np.ndarray | None = None  # [n, d] tangential hydrostatic moment (volume map)
 
     def fluid(self):
         return self.rs, self.idx, self.G
@@ -32,19 +39,45 @@ class Neighbourhood:
 
 
 def build(x: np.ndarray, walls: np.ndarray | CellGrid, Vb: np.ndarray, h: float,
-          V0: float) -> Neighbourhood:
+          V0: float, vmap: VolumeMap | None = None, wall_edges: bool = True) -> Neighbourhood:
     """Search neighbours within ``h`` and evaluate W, ∇W and ψ at positions ``x``.
 
     ``walls``: the wall particles, or (faster, as the Simulator does) a
-    :class:`~dcdc.neighbors.CellGrid` of them built once with radius ``h``."""
+    :class:`~dcdc.neighbors.CellGrid` of them built once with radius ``h``.
+    ``vmap``: the walls as a volume map; then ψ and S_b come from it, and the fluid-wall
+    edges (for wall friction) are built only if ``wall_edges``. A wall particle of the
+    map counts as Ψ(x_i) · N_full neighbours for the sparse-neighbourhood test (N_full:
+    neighbours of a particle inside the rest lattice)."""
     if not isinstance(walls, CellGrid):
         walls = CellGrid(walls, h)
     ff = radius_search(x, h)
-    fw = walls.search(x)
+    n, d = x.shape
+    if vmap is None or wall_edges:
+        fw = walls.search(x)
+        rsb, idxb = fw.row_splits, fw.index
+    else:
+        rsb, idxb = np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int32)
     W, G = edge_kernels(x, x, ff.row_splits, ff.index, h)
-    Wb, Gb = edge_kernels(x, walls.points, fw.row_splits, fw.index, h)
-    psi = compression(ff.row_splits, W, fw.row_splits, fw.index, Wb, Vb, V0)
-    counts = neighbour_counts(ff.row_splits, fw.row_splits)
-    Sb = wall_gradient_sum(fw.row_splits, fw.index, Gb, Vb, len(x), x.shape[1])
-    return Neighbourhood(ff.row_splits, ff.index, W, G, fw.row_splits, fw.index, Wb, Gb, psi,
-                         counts, Sb)
+    Wb, Gb = edge_kernels(x, walls.points, rsb, idxb, h)
+    if vmap is None:
+        psi = compression(ff.row_splits, W, rsb, idxb, Wb, Vb, V0)
+        counts = neighbour_counts(ff.row_splits, rsb)
+        Sb = wall_gradient_sum(rsb, idxb, Gb, Vb, n, d)
+    else:
+        psi_b, Sb = vmap.sample(x)
+        empty = np.zeros(n + 1, dtype=np.int64)
+        psi = compression(ff.row_splits, W, empty, idxb[:0], Wb[:0], Vb, V0) + psi_b
+        counts = np.diff(ff.row_splits) + np.rint(psi_b * full_count(h, V0, d)).astype(np.int64)
+        return Neighbourhood(ff.row_splits, ff.index, W, G, rsb, idxb, Wb, Gb, psi, counts, Sb,
+                             vmap.tangential_moment(x, Sb))
+    return Neighbourhood(ff.row_splits, ff.index, W, G, rsb, idxb, Wb, Gb, psi, counts, Sb)
+
+
+def full_count(h: float, V0: float, dim: int) -> int:
+    """Neighbours (self included) of a particle inside the rest lattice of spacing V0^(1/d)."""
+    s = V0 ** (1.0 / dim)
+    m = int(np.ceil(h / s))
+    ax = np.arange(-m, m + 1) * s
+    grids = np.meshgrid(*([ax] * dim), indexing="ij")
+    r2 = sum(g ** 2 for g in grids)
+    return int((r2 < h * h).sum())

@@ -19,7 +19,7 @@ Notation (docs/sph.md gives the derivation). Every fluid particle has the same r
   force only) pumped energy into a tank at rest; β = 2 in force and rate (symmetric again)
   left a 3-D tank at rest agitated at 3.5 % of sqrt(gH) (measured, docs/sph.md).
 * viscosity: Morris et al. (1997) Laplacian with harmonic-mean dynamic viscosity
-      a_i = 2(d+2) V0/ρ0_i Σ_j μ_ij (v_ij·x_ij)/(|x_ij|² + 0.01 h²) G_ij  (+ wall friction)
+      a_i = 2(d+2) V0/ρ0_i Σ_j μ_ij (v_ij·x_ij)/(|x_ij|² + 0.01 h²) G_ij  (+ no-slip walls)
 * cohesion (optional surface tension): Akinci, Akinci & Teschner (2013) eq. 1, same phase,
   spline scaled to a peak of 1 (γ in m/s² per pair).
 
@@ -200,9 +200,10 @@ def jacobi_update(p, base, Ap, diag, coef, target, mask, omega):
 
 
 @nb.njit(cache=True, parallel=True)
-def viscosity_acceleration(x, v, rho0, mu, nu_wall, rs, idx, G, wall_x, rsb, idxb, Gb, Vb, V0, h):
+def viscosity_acceleration(x, v, rho0, mu, no_slip, rs, idx, G, wall_x, rsb, idxb, Gb, Vb, V0, h):
     """Morris et al. (1997) viscosity with harmonic-mean dynamic viscosity μ_ij (momentum
-    conserving between phases), plus wall friction of kinematic viscosity ``nu_wall``."""
+    conserving between phases), plus, if ``no_slip``, friction against the resting wall
+    particles with the particle's own kinematic viscosity μ_i / ρ0_i."""
     n, d = x.shape
     out = np.zeros((n, d))
     eps = 0.01 * h * h
@@ -225,7 +226,8 @@ def viscosity_acceleration(x, v, rho0, mu, nu_wall, rs, idx, G, wall_x, rsb, idx
             f = c * V0 / rho0[i] * mij * vx / (r2 + eps)
             for k in range(d):
                 out[i, k] += f * G[e, k]
-        if nu_wall > 0.0:
+        nu_wall = mu[i] / rho0[i]
+        if no_slip and nu_wall > 0.0:
             for e in range(rsb[i], rsb[i + 1]):
                 b = idxb[e]
                 vx = 0.0
@@ -290,4 +292,20 @@ def xsph_velocity_change(v, rho0, rs, idx, W, V0, eps):
             f = eps * 2.0 * rho0[j] / (rho0[i] + rho0[j]) * V0 * W[e]
             for k in range(d):
                 out[i, k] += f * (v[j, k] - v[i, k])
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def mixture_density(rho0, rs, idx, W):
+    """Kernel-weighted mean rest density of the fluid around each particle (self included),
+    ρ̄_i = Σ_j W_ij ρ0_j / Σ_j W_ij: the density of the local hydrostatic column."""
+    n = len(rs) - 1
+    out = np.empty(n)
+    for i in nb.prange(n):
+        s = 0.0
+        w = 0.0
+        for e in range(rs[i], rs[i + 1]):
+            s += W[e] * rho0[idx[e]]
+            w += W[e]
+        out[i] = s / w if w > 0.0 else rho0[i]
     return out
