@@ -122,3 +122,27 @@ def test_evaluate_cli_refuses_a_mismatched_model_before_work(ckpts, tmp_path, ca
                            "--json", str(tmp_path / "e.json")], capsys)
     assert code == 2 and err.startswith("error:") and "3-D" in err and err.count("\n") == 1
     assert not (tmp_path / "e.json").exists()
+
+
+def test_train_simulate_evaluate_end_to_end(tmp_path, capsys):
+    """Issue 9 item 8: the tiny training config, then `simulate` and `evaluate` with its model."""
+    from pathlib import Path
+    tiny = Path(__file__).resolve().parents[1] / "examples" / "train_2d_tiny.toml"
+    if not tiny.exists():
+        pytest.skip("examples/train_2d_tiny.toml not present")
+    run_dir = tmp_path / "run"
+    code, _, err = _cli(["train", str(tiny), "--out", str(run_dir), "--set", "optim.steps=4",
+                         "--set", "eval.every=2", "--set", "log.checkpoint_every=2"], capsys)
+    assert code == 0, err
+    model = run_dir / "model.pt"
+    code, out, err = _cli(["simulate", "--model", str(model), "--dataset", SAMPLE, "--trajectory",
+                           "hourglass_2d", "--steps", "2", "--max-in-walls", "1", "--out",
+                           str(tmp_path / "r.h5")], capsys)
+    assert code == 0, err
+    assert Dataset(tmp_path / "r.h5")["hourglass_2d"].n_frames == 3
+    code, out, err = _cli(["evaluate", "--model", str(model), "--data", SAMPLE, "--trajectory",
+                           "hourglass_2d", "--steps", "2", "--max-in-walls", "1", "--json",
+                           str(tmp_path / "e.json")], capsys)
+    assert code == 0, err
+    row = json.loads((tmp_path / "e.json").read_text())["trajectories"]["hourglass_2d"]["model"]
+    assert row["steps"] == 2 and row["err_n1_mm"] > 0
