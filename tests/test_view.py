@@ -5,6 +5,7 @@ import json
 import re
 import shutil
 import subprocess
+import tempfile
 
 import numpy as np
 import pytest
@@ -75,13 +76,18 @@ def _load(page, tmp_path, hash=""):
     # software WebGL (SwiftShader): CI machines have no GPU, and newer Chromium wants it asked for
     cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
            "--enable-unsafe-swiftshader", "--no-first-run",
-           "--disable-extensions", f"--user-data-dir={tmp_path / 'profile'}",
+           "--disable-extensions", f"--user-data-dir={tempfile.mkdtemp(dir=tmp_path)}",
            "--window-size=640,720", "--virtual-time-budget=3000", "--dump-dom",
            page.as_uri() + hash]
-    dom = subprocess.run(cmd, capture_output=True, text=True, timeout=120).stdout
-    body = re.search(r"<body([^>]*)>", dom)
-    assert body, dom[:500]
-    return dict(re.findall(r'data-(\w+)="([^"]*)"', body.group(1))), dom
+    # a fresh profile per run (a profile still locked by the previous browser is refused),
+    # and up to three runs: a loaded machine's headless GPU process can fail to start
+    for attempt in range(3):
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+        body = re.search(r"<body([^>]*)>", r.stdout)
+        attrs = dict(re.findall(r'data-(\w+)="([^"]*)"', body.group(1))) if body else {}
+        if "frame" in attrs:
+            return attrs, r.stdout
+    raise AssertionError(f"the page never drew: {attrs}, {r.stdout[:300]!r}, {r.stderr[-500:]!r}")
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed (apt-get install chromium)")
