@@ -71,11 +71,9 @@ def density_order_ok(x, phase, phase_densities, stat: str = "median", up: int = 
     density are not compared. Default statistic: the median height (as the demo reports)."""
     rho = np.asarray(phase_densities, dtype=np.float64)
     h = phase_heights(x, phase, len(rho), stat, up, active)
-    ks = [k for k in np.argsort(-rho, kind="stable") if np.isfinite(h[k])]
-    for a, b in zip(ks, ks[1:]):  # a heavier than (or as heavy as) b
-        if rho[a] > rho[b] and not h[a] < h[b]:
-            return False
-    return True
+    ks = [k for k in range(len(rho)) if np.isfinite(h[k])]
+    # every pair: with equal densities a chain of neighbours in density order would skip some
+    return all(h[a] < h[b] for a in ks for b in ks if rho[a] > rho[b])
 
 
 def ideal_layer_purity(x, phase, order_bottom_to_top: Sequence[int], floor: float,

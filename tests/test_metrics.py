@@ -33,6 +33,11 @@ def test_order_checks():
     # equal densities are not compared; an empty phase is skipped
     assert M.density_order_ok(x, phase, [1000.0, 1000.0])
     assert M.density_order_ok(x, phase, [1000.0, 3000.0, 5000.0])
+    # three phases, two of equal density: the heavy one must lie below both
+    x3 = np.array([[0, 1.0], [0, 2.0], [0, 3.0]])
+    assert M.density_order_ok(x3, [0, 1, 2], [3000.0, 1000.0, 1000.0])
+    assert not M.density_order_ok(x3, [1, 0, 2], [3000.0, 1000.0, 1000.0])
+    assert not M.density_order_ok(x3, [1, 2, 0], [3000.0, 1000.0, 1000.0])
 
 
 def test_ideal_layer_purity_matches_hand_count():
