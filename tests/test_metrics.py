@@ -38,6 +38,7 @@ def test_order_checks():
     assert M.density_order_ok(x3, [0, 1, 2], [3000.0, 1000.0, 1000.0])
     assert not M.density_order_ok(x3, [1, 0, 2], [3000.0, 1000.0, 1000.0])
     assert not M.density_order_ok(x3, [1, 2, 0], [3000.0, 1000.0, 1000.0])
+    assert not M.density_order_ok(x3, [2, 0, 1], [3000.0, 1000.0, 1000.0])  # one light below
 
 
 def test_ideal_layer_purity_matches_hand_count():
