@@ -20,9 +20,9 @@ def _start_from_scene(scene: str, dim, resolution: float, model, steps, max_part
         from ..model.dlf import scene_system
         if dim is not None and int(dim) != 3:
             raise DcdcError("a DeepLagrangianFluids scene (.json) is 3-D; drop --dim")
-        system = scene_system(scene, radius=model.cfg.particle_radius,
-                              frames=steps or 1, dt=model.cfg.frame_dt)
         n = steps or 250  # run_network.py's default
+        system = scene_system(scene, radius=model.cfg.particle_radius, frames=n,
+                              dt=model.cfg.frame_dt)
         return system, n, {"scene": Path(scene).stem, "source": str(scene)}
     from ..scene import get_scene
     sc = get_scene(scene)
