@@ -144,6 +144,13 @@ def test_run_records_the_stop_and_keeps_good_frames():
     assert ro.time == pytest.approx([0.0, 0.02])
 
 
+def test_frames_that_cannot_fit_are_refused_before_allocating():
+    sim = NeuralSimulator(zero_net(), box_system([[0, 1.0]], [[0, 0]]))
+    with pytest.raises(DcdcError, match="GiB"):
+        run(sim, 10 ** 12)
+    assert sim.steps == 0
+
+
 def test_starts_from_a_dataset_frame():
     traj = Dataset(SAMPLE)[0]
     # ballistic, some particles fly into and through the walls: only NaN/speed guard here

@@ -227,6 +227,17 @@ class NeuralSimulator:
         return n_in
 
 
+def _check_memory(frames: int, n: int, dim: int) -> None:
+    """Refuse, before allocating, frames that would not fit in half this machine's memory."""
+    from ..scene.budget import physical_memory
+
+    need = 2.0 * frames * n * dim * 4  # float32 positions + velocities
+    mem = physical_memory()
+    if mem and need > 0.5 * mem:
+        raise DcdcError(f"{frames} frames of {n} particles need {need / 2**30:.1f} GiB, more "
+                        f"than half of this machine's {mem / 2**30:.1f} GiB; use fewer --steps")
+
+
 @dataclass
 class Rollout:
     """Frames of a rollout: positions/velocities [T, N, d] (frame 0 = the start), times [T],
@@ -253,6 +264,7 @@ def run(sim: NeuralSimulator, n_steps: int, progress=None, interrupt_check=None)
     if not (isinstance(n_steps, (int, np.integer)) and n_steps >= 1):
         raise DcdcError(f"a rollout needs at least 1 step (got {n_steps!r})")
     sy = sim.system
+    _check_memory(n_steps + 1, sy.n_fluid, sy.dim)
     xs = np.empty((n_steps + 1,) + sy.x.shape, dtype=np.float32)
     vs = np.empty_like(xs)
     ts = np.empty(n_steps + 1)
