@@ -81,11 +81,11 @@ def one_two_step_errors(model, traj, stride: int = 5) -> tuple[float, float, int
             float(np.mean(e2)) if e2 else float("nan"), len(e1))
 
 
-def physical_state(x, v, phase, phases, radius, wall_x, domain_min, active):
+def physical_state(x, phase, phases, radius, wall_x, domain_min, active):
     """Physical metrics of one state (predicted or true): per-phase centre-of-mass and median
     heights above the domain floor, stratification order, neighbour purity, per-phase
     volumes and the mean compression (docs/evaluation.md)."""
-    x, v, phase = x[active], v[active], phase[active]
+    x, phase = x[active], phase[active]
     P = len(phases)
     rho = np.array([p.density for p in phases])
     floor = float(domain_min[1])
@@ -131,9 +131,9 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         mom.append(float(np.linalg.norm(dP)) / max(float(mass[act].sum()), 1e-30))
     act = traj.birth <= traj.time[K] + 1e-9
     dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
-    pred = physical_state(ro.position[K].astype(np.float64), ro.velocity[K], phase, phases,
-                          traj.radius, traj.wall_x, dmin, act)
-    true = physical_state(pos_t[K].astype(np.float64), vel_t[K], phase, phases, traj.radius,
+    pred = physical_state(ro.position[K].astype(np.float64), phase, phases, traj.radius,
+                          traj.wall_x, dmin, act)
+    true = physical_state(pos_t[K].astype(np.float64), phase, phases, traj.radius,
                           traj.wall_x, dmin, act)
     with np.errstate(invalid="ignore", divide="ignore"):
         com_rel = np.abs(pred["com_height"] - true["com_height"]) / np.abs(true["com_height"])
