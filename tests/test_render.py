@@ -72,6 +72,15 @@ def test_splat_nearest_sphere_wins_and_shading_follows_the_light():
     assert ids[20, 28] == np.where(order == 0)[0][0]  # outside it the far one shows
     assert ids[20, 35] == -1 and ids[0, 0] == -1       # outside both: nothing
     assert zbuf[20, 20] == pytest.approx(3.0 - 0.1, abs=1e-3)
+    # shading: lit from the upper left, in the sphere's own colour
+    from dcdc.render.splat import LIGHT, MATERIAL, shade_layer
+    rgb = np.zeros((40, 40, 3))
+    colors = np.array([[0.2, 0.4, 0.8], [0.2, 0.4, 0.8]])
+    shade_layer(ids, sx, sy, rad, colors, LIGHT, MATERIAL, rgb)
+    upper_left, lower_right = rgb[16, 16], rgb[24, 24]
+    assert upper_left.sum() > 1.5 * lower_right.sum()
+    assert lower_right[2] / lower_right[0] == pytest.approx(4.0)  # no highlight there: pure colour
+    assert np.all(rgb[0, 0] == 0)
 
 
 def test_parallel_bands_draw_the_same_picture():

@@ -1,5 +1,11 @@
 """Sphere impostors splatted into a z-buffer (the rasteriser behind ``dcdc render``).
 
+References: depth-corrected sphere impostors as in Gumhold, "Splatting illuminated
+ellipsoids with depth correction" (VMV 2003) and molecular viewers since; Blinn, "Models
+of light reflection for computer synthesized pictures" (SIGGRAPH 1977) for the shading;
+perspective-correct depth of triangles from 1/z being linear in screen space (Heckbert &
+Moreton, "Interpolation for polygon texture mapping and shading", 1991).
+
 Each particle is drawn as the screen disc of a sphere: for a sample at normalised offset
 (dx, dy) inside the disc the sphere's surface normal is (dx, -dy, sqrt(1 - dx² - dy²)) in
 camera space, its depth is the centre's depth minus the sphere's radius times that z
