@@ -2,9 +2,10 @@
 
 For two particle sets A (e.g. ground truth) and B (e.g. a model's rollout) of the same
 frame, d(A→B) is the mean over A of the distance to the nearest particle of B; the caption
-reports the symmetric mean ½ (d(A→B) + d(B→A)) in mm (half the "Chamfer distance" of the
-learned-simulator literature, e.g. Ummenhofer et al. 2020). It needs no particle
-correspondence, so it also compares runs with different particle counts.
+reports the symmetric mean ½ (d(A→B) + d(B→A)) in mm: half the symmetric Chamfer distance
+(with unsquared distances) of point-set comparison (Fan, Su & Guibas, CVPR 2017), one of
+the distribution distances of DESIGN §6. It needs no particle correspondence, so it also
+compares runs with different particle counts.
 
 Nearest neighbours come from a uniform grid of B (cells of the particle spacing) searched
 in growing shells of cells until no nearer particle can lie outside the shells visited.
