@@ -104,3 +104,26 @@ def test_page_plays_in_headless_chromium(tmp_path):
     assert paused["frame"] == "7" and "advanced" not in paused
     hidden, _ = _load(out, tmp_path, "#frame=7&hide=0,1")
     assert hidden["frame"] == "7" and 0 < int(hidden["painted"]) < 0.6 * int(paused["painted"])
+
+
+def test_mesh_walls_are_sent_wound_towards_the_fluid(tmp_path):
+    from test_export import MESH_SCENE
+
+    from dcdc.render.benchmark import block_trajectory
+    from dcdc.render.walls import wall_meshes
+    traj = open_trajectory(block_trajectory(tmp_path / "m.h5", 3, 60, frames=1,
+                                            attrs={"scene_toml": MESH_SCENE}))
+    d = page_data(traj, [0, 1])
+    v = np.frombuffer(base64.b64decode(d["mesh_positions"]), "<f4").reshape(-1, 3, 3)
+    n = np.frombuffer(base64.b64decode(d["mesh_normals"]), np.int8).reshape(-1, 3, 3) / 127
+    (mesh,), _ = wall_meshes(traj)
+    assert len(v) == len(mesh.triangles)
+    face = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    assert np.all(np.einsum("ij,ij->i", face, n[:, 0]) > 0)  # counter-clockwise from the fluid
+    np.testing.assert_allclose(n[:, 0], mesh.fluid_normals(), atol=0.01)
+    assert "mesh_positions" not in page_data(open_trajectory(SAMPLE), [0])  # 2-D: none
+    if CHROMIUM:
+        out = tmp_path / "m.html"
+        assert _cli("view", traj.ref.file, "--html", out) == 0
+        attrs, _ = _load(out, tmp_path, "#frame=1&hide=0,1")
+        assert "error" not in attrs and int(attrs["painted"]) > 0

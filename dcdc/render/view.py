@@ -8,7 +8,8 @@ the data inlined as one JSON object:
 * phase index (uint8) and emission time (float32) per particle, phase names, densities and
   colours, frame times;
 * wall positions (uint16) and normals (int8), base64: the page draws a wall point only
-  where its normal faces the camera, so the front walls are cut away at every angle.
+  where its normal faces the camera, so the front walls are cut away at every angle;
+* mesh walls as faint triangles (:func:`mesh_data`), culled the same way.
 
 Frames are subsampled to at most ``max_frames`` (every k-th frame with the smallest k that
 fits, the last frame always kept) so the file stays small: 6 bytes per particle and frame
@@ -89,7 +90,30 @@ def page_data(traj, frames: list[int]) -> dict:
         "birth": _b64(traj.birth.astype("<f4")),
         "wall_positions": _b64(_quantise(walls, lo3, span)),
         "wall_normals": _b64(np.clip(np.round(normals * 127), -127, 127).astype(np.int8)),
+        **mesh_data(traj),
     }
+
+
+def mesh_data(traj) -> dict:
+    """Mesh walls (:mod:`.walls`) as unindexed triangles, float32 positions and int8 face
+    normals per vertex, each triangle wound counter-clockwise seen from the fluid side (the
+    page culls back faces: the same cut-away as for wall particles). Empty without meshes."""
+    from .walls import wall_meshes
+    meshes, _ = wall_meshes(traj)
+    if not meshes:
+        return {}
+    pos, nrm = [], []
+    for m in meshes:
+        tris = m.triangles.copy()
+        v = m.vertices[tris]
+        n = m.fluid_normals()
+        flip = np.einsum("ij,ij->i", np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), n) < 0
+        tris[flip] = tris[flip][:, ::-1]
+        pos.append(m.vertices[tris].reshape(-1, 3))
+        nrm.append(np.repeat(n, 3, axis=0))
+    return {"mesh_positions": _b64(np.concatenate(pos).astype("<f4")),
+            "mesh_normals": _b64(np.clip(np.round(np.concatenate(nrm) * 127), -127, 127)
+                                 .astype(np.int8))}
 
 
 def render_page(data: dict) -> str:
