@@ -10,9 +10,6 @@ import click
 
 from ..errors import DcdcError
 
-TRAJ_HELP = "dataset file or directory (SPH data or a neural rollout)"
-
-
 def _progress(total, enabled, desc):
     from tqdm import tqdm
     return tqdm(total=total, unit="frame", desc=desc, disable=not enabled)
@@ -66,7 +63,8 @@ def _save_png(img, path, palette=None):
 def render_command(traj_path, out, name, compare, strip, frames, stride, fps, width, height,
                    azimuth, elevation, distance, zoom, cut, no_walls, supersample, palette,
                    overwrite, no_progress):
-    """Render TRAJ as an animation, a strip of time points, or compared with another."""
+    """Render TRAJ (a dataset file or directory: SPH data or a neural rollout) as an
+    animation, a strip of time points, or side by side with another (--compare A B)."""
     from .figures import Figure, describe, open_trajectory, select_frames, strip_frames
     from .frames import default_camera
     from .output import atomic_file, check_output

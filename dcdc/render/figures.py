@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from .compare import mean_nearest_distance
-from .frames import AXES, FrameRenderer, parse_cut
+from .frames import AXES, FrameRenderer, parse_cut, scene_bounds
 from .overlay import font_size, hstack, legend_band, note, title_band, vstack
 
 
@@ -107,7 +107,6 @@ class Figure:
         for b in trajs[1:]:
             if b.dim != a.dim:
                 raise DcdcError(f"cannot compare a {a.dim}-D with a {b.dim}-D trajectory")
-        from .frames import scene_bounds
         lo, hi = scene_bounds(a)
         cut = parse_cut(cut_text, a.dim, lo, hi)
         return cls([FrameRenderer(t, camera, supersample, cut, walls) for t in trajs], cut)
