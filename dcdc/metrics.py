@@ -118,6 +118,48 @@ def neighbour_purity(x, phase, radius: float, active=None) -> float:
     return float(np.mean(per[has] / counts[has])) if has.any() else float("nan")
 
 
+def neighbour_purity_per_phase(x, phase, radius: float, n_phases: int) -> np.ndarray:
+    """:func:`neighbour_purity` of each phase separately [P] (the layer purity of a showcase
+    whose layers are not flat, e.g. a glass): per phase, the mean over its particles of the
+    fraction of their neighbours within ``radius`` of the same phase."""
+    from .neighbors import radius_search
+
+    x = np.asarray(x, dtype=np.float64)
+    phase = np.asarray(phase)
+    nb = radius_search(x, radius, exclude_self=True)
+    rec = nb.receivers()
+    same = np.bincount(rec, weights=(phase[rec] == phase[nb.index]).astype(np.float64),
+                       minlength=len(x))
+    counts = nb.counts
+    frac = np.where(counts > 0, same / np.maximum(counts, 1), np.nan)
+    return np.array([np.nanmean(frac[phase == k]) if (phase == k).any() else np.nan
+                     for k in range(n_phases)])
+
+
+def trapped_at_walls(x, phase, phase_densities, wall_x, radius: float) -> np.ndarray:
+    """Fraction of each phase [P] held at a wall under denser fluid: particles within two
+    spacings (4r) of a wall particle most of whose fluid neighbours (within 2.5r) belong to
+    denser phases whose mean height is above the particle (light fluid glued to a glass
+    under a heavier layer; a light particle resting on a denser layer is not counted).
+    Heights along axis 1 (y up)."""
+    from .neighbors import radius_search
+
+    x = np.asarray(x, dtype=np.float64)
+    phase = np.asarray(phase)
+    dens = np.asarray(phase_densities, dtype=np.float64)
+    nb = radius_search(x, 2.5 * radius, exclude_self=True)
+    rec = nb.receivers()
+    is_denser = (dens[phase[nb.index]] > dens[phase[rec]]).astype(np.float64)
+    denser = np.bincount(rec, weights=is_denser, minlength=len(x))
+    frac = denser / np.maximum(nb.counts, 1)
+    dy = np.bincount(rec, weights=is_denser * (x[nb.index, 1] - x[rec, 1]), minlength=len(x))
+    above = dy > 0.0  # the denser neighbours lie above on average
+    at_wall = radius_search(x, 4.0 * radius, np.asarray(wall_x, dtype=np.float64)).counts > 0
+    held = at_wall & (frac > 0.5) & above
+    return np.array([held[phase == k].mean() if (phase == k).any() else 0.0
+                     for k in range(len(dens))])
+
+
 # ---------------------------------------------------------------------------- volume / density
 def phase_volumes(psi, phase, volume: float, n_phases: int | None = None) -> np.ndarray:
     """Volume per phase V_k = Σ_{i∈k} V / max(ψ_i, 1) [P] from the number density ψ_i = ρ_i/ρ0_i.

@@ -1,7 +1,9 @@
 """Solver settings: one typed dataclass, round-tripped through plain dicts (scene files, HDF5)."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import MISSING, asdict, dataclass, field, fields
+
+import math
 
 from ..errors import DcdcError
 
@@ -42,6 +44,9 @@ class SPHConfig:
         (Akinci et al. 2012 sums over the wall particles; their ripple grips fluid under
         pressure, docs/sph.md).
     surface_tension: Akinci et al. 2013 cohesion γ [m/s² per same-phase pair] (0 = off).
+    interfacial_tension: σ [N/m] per pair of phases, {"oil/water": 0.05, ...}: a pairwise
+        repulsion between unlike phases whose strength follows from σ
+        (:mod:`dcdc.sph.interfaces`); empty = none.
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -65,6 +70,7 @@ class SPHConfig:
     boundary: str = "map"
     wall_buoyancy: bool = False
     surface_tension: float = 0.0
+    interfacial_tension: dict = field(default_factory=dict)
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -101,6 +107,12 @@ class SPHConfig:
             raise DcdcError(f"sph.dt_min ({self.dt_min}) exceeds sph.dt_max ({self.dt_max})")
         if self.min_iterations > self.max_iterations:
             raise DcdcError("sph.min_iterations exceeds sph.max_iterations")
+        if not isinstance(self.interfacial_tension, dict):
+            raise DcdcError("sph.interfacial_tension must be a table of \"a/b\" = σ [N/m]")
+        for k, v in self.interfacial_tension.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise DcdcError(f"sph.interfacial_tension.{k} must be a finite number >= 0 "
+                                f"(got {v!r})")
         return self
 
     def to_dict(self) -> dict:
@@ -118,7 +130,8 @@ class SPHConfig:
             raise DcdcError(f"unknown sph setting {unknown[0]!r} (known: {', '.join(known)})")
         kw = {}
         for k, v in d.items():
-            default = known[k].default
+            f = known[k]
+            default = f.default if f.default is not MISSING else f.default_factory()
             if isinstance(default, float) and isinstance(v, int) and not isinstance(v, bool):
                 v = float(v)
             if type(v) is not type(default):

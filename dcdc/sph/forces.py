@@ -5,12 +5,12 @@ import numpy as np
 
 from .neighbourhood import Neighbourhood
 from .state import State
-from .terms import (cohesion_acceleration, mixture_density, viscosity_acceleration,
+from .terms import (cohesion_acceleration, interface_acceleration, mixture_density, viscosity_acceleration,
                     xsph_velocity_change)
 
 
 def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
-                              surface_tension: float) -> np.ndarray:
+                              surface_tension: float, pair_k=None) -> np.ndarray:
     """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + Akinci
     cohesion."""
     a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, no_slip, nbh.rs, nbh.idx, nbh.G,
@@ -18,6 +18,8 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
     a += s.gravity
     if nbh.wall_moment is not None:
         a += wall_hydrostatic_acceleration(s, nbh)
+    if pair_k is not None:
+        a += interface_acceleration(s.x, s.phase, s.rho0, pair_k, nbh.rs, nbh.idx, s.h, s.V0)
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
     return a

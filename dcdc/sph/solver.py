@@ -31,6 +31,7 @@ from ..particles import ParticleSystem
 from . import dfsph, volume_map, wcsph
 from .boundary import check_fluid_outside_walls, wall_volumes
 from .config import SPHConfig
+from .interfaces import pair_coefficients
 from .kernels import lattice_volume
 from .neighbourhood import build
 from .state import State
@@ -66,6 +67,8 @@ class Simulator:
         self._p_div = np.zeros(n)
         self._p_frame = np.zeros(n)  # Δt-weighted mean of p + p_div over the last frame
         self._sound_speed = cfg.sound_speed or _auto_sound_speed(system)
+        self._pair_k = pair_coefficients(cfg.interfacial_tension, system.phases, self.h, self.V0,
+                                         system.dim)
         self.stats: dict = {}
         self.totals = {"frames": 0, "substeps": 0, "iterations": 0, "divergence_iterations": 0,
                        "max_density_error": 0.0}
@@ -173,7 +176,8 @@ class Simulator:
         sy = self.system
         sel = (lambda a: a) if active is None else (lambda a: a[active])
         return State(sel(sy.x), sel(sy.v), sel(sy.phase), sel(self._rho0), sel(self._mu),
-                     sel(self._p), sel(self._p_div), sy.wall_x, self.Vb, sy.gravity, self.V0, self.h)
+                     sel(self._p), sel(self._p_div), sy.wall_x, self.Vb, sy.gravity, self.V0, self.h,
+                     self._pair_k)
 
     def _store(self, active, s: State) -> None:
         if active is None:

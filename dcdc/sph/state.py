@@ -20,6 +20,7 @@ class State:
     gravity: np.ndarray  # [d]
     V0: float  # rest volume of a fluid particle (2r)^d
     h: float  # kernel support
+    pair_k: np.ndarray | None = None  # [phases, phases] interfacial repulsion k_ab [N]
 
     @property
     def dim(self) -> int:

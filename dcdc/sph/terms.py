@@ -309,3 +309,39 @@ def mixture_density(rho0, rs, idx, W):
             w += W[e]
         out[i] = s / w if w > 0.0 else rho0[i]
     return out
+
+
+@nb.njit(cache=True, parallel=True)
+def interface_acceleration(x, phase, rho0, K, rs, idx, h, V0):
+    """Pairwise interfacial tension between unlike phases (docs/sph.md, "Interfacial
+    tension"): a repulsion of the pair potential u_ab(r) = k_ab φ(r), k_ab <= 0, between
+    particles of phases a != b,
+        a_i = (1 / (ρ0_i V0)) Σ_{j: phase_j != phase_i} k_ab w(|x_ij| / h) (x_j - x_i)/|x_ij|
+    with w the cubic spline shape scaled to w(0) = 1. Pairwise and antisymmetric: momentum
+    is conserved and the force derives from a potential (no energy is created)."""
+    n, d = x.shape
+    out = np.zeros((n, d))
+    for i in nb.prange(n):
+        pi = phase[i]
+        m = rho0[i] * V0
+        for e in range(rs[i], rs[i + 1]):
+            j = idx[e]
+            pj = phase[j]
+            if pj == pi:
+                continue
+            k = K[pi, pj]
+            if k == 0.0:
+                continue
+            r2 = 0.0
+            for a in range(d):
+                t = x[j, a] - x[i, a]
+                r2 += t * t
+            r = math.sqrt(r2)
+            if r < 1e-9 * h or r >= h:
+                continue
+            q = r / h
+            w = 6.0 * (q * q * q - q * q) + 1.0 if q <= 0.5 else 2.0 * (1.0 - q) ** 3
+            f = k * w / (m * r)
+            for a in range(d):
+                out[i, a] += f * (x[j, a] - x[i, a])
+    return out
