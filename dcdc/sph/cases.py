@@ -14,6 +14,7 @@ from typing import Callable
 
 import numpy as np
 
+from .. import metrics
 from ..geometry import lattice, sample_walls
 from ..geometry.shapes import container
 from ..particles import ParticleSystem, Phase
@@ -113,24 +114,15 @@ def _depth_size(dim, w, h, depth):
 
 # ---------------------------------------------------------------------------- measurements
 def phase_order_ok(sy: ParticleSystem, order_bottom_to_top: list[int]) -> bool:
-    ys = [sy.x[sy.phase == k, 1].mean() for k in order_bottom_to_top]
-    return all(a < b for a, b in zip(ys, ys[1:]))
+    """Phases in ``order_bottom_to_top`` by mean height (:func:`dcdc.metrics.phase_order_ok`)."""
+    return metrics.phase_order_ok(sy.x, sy.phase, order_bottom_to_top)
 
 
 def layer_purity(sy: ParticleSystem, order_bottom_to_top: list[int], floor: float,
                  area: float, V0: float) -> float:
-    """Fraction of particles lying in their phase's ideal layer (± one spacing): layers are
-    stacked from ``floor`` in the given order with heights N_k V0 / area."""
-    y = sy.x[:, 1]
-    ok = 0
-    base = floor
-    for k in order_bottom_to_top:
-        m = sy.phase == k
-        hgt = m.sum() * V0 / area
-        lo, hi = base - sy.spacing, base + hgt + sy.spacing
-        ok += int(((y[m] >= lo) & (y[m] <= hi)).sum())
-        base += hgt
-    return ok / sy.n_fluid
+    """Ideal-layer purity (:func:`dcdc.metrics.ideal_layer_purity`, ± one spacing)."""
+    return metrics.ideal_layer_purity(sy.x, sy.phase, order_bottom_to_top, floor, area, V0,
+                                      sy.spacing)
 
 
 def trapped_below(sy: ParticleSystem, light: int, heavy_below: list[int], floor: float,
@@ -402,7 +394,7 @@ def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     σ = 10 N/m (per unit depth in 2-D) makes Δp ~ 100 Pa, well above the frame pressure's
     noise at these resolutions; the densities are equal (1000)."""
     sigma = 10.0
-    r = (0.01 if quick else 0.005) if dim == 2 else (0.01 if quick else 0.0075)
+    r = (0.01 if quick else 0.005) if dim == 2 else (0.0125 if quick else 0.01)
     W = 0.4 if dim == 2 else 0.3
     half = 0.5 * (math.sqrt(math.pi) * 0.1 if dim == 2 else (4.0 * math.pi / 3.0) ** (1 / 3) * 0.09)
     c = W / 2
