@@ -101,37 +101,37 @@ def ideal_layer_purity(x, phase, order_bottom_to_top: Sequence[int], floor: floa
     return ok / n
 
 
+def _same_phase_fraction(x, phase, radius: float) -> np.ndarray:
+    """Per particle, the fraction of its neighbours within ``radius`` (self excluded) that
+    belong to its own phase; NaN for a particle without neighbours."""
+    from .neighbors import radius_search
+
+    nb = radius_search(x, radius, exclude_self=True)
+    rec = nb.receivers()
+    same = np.bincount(rec, weights=(phase[rec] == phase[nb.index]).astype(np.float64),
+                       minlength=len(x))
+    counts = nb.counts
+    return np.where(counts > 0, same / np.maximum(counts, 1), np.nan)
+
+
 def neighbour_purity(x, phase, radius: float, active=None) -> float:
     """Interface sharpness: the mean over particles with at least one neighbour within
     ``radius`` of the fraction of those neighbours that belong to the particle's own phase
     (1 = perfectly separated phases; a well-mixed two-phase 1:1 state gives ≈ 0.5)."""
-    from .neighbors import radius_search
-
     x, phase = _select(active, np.asarray(x, dtype=np.float64), np.asarray(phase))
     if len(x) < 2:
         return float("nan")
-    nb = radius_search(x, radius, exclude_self=True)
-    counts = nb.counts
-    same = (phase[nb.receivers()] == phase[nb.index]).astype(np.float64)
-    per = np.bincount(nb.receivers(), weights=same, minlength=len(x))
-    has = counts > 0
-    return float(np.mean(per[has] / counts[has])) if has.any() else float("nan")
+    frac = _same_phase_fraction(x, phase, radius)
+    return float(np.nanmean(frac)) if np.isfinite(frac).any() else float("nan")
 
 
 def neighbour_purity_per_phase(x, phase, radius: float, n_phases: int) -> np.ndarray:
     """:func:`neighbour_purity` of each phase separately [P] (the layer purity of a showcase
     whose layers are not flat, e.g. a glass): per phase, the mean over its particles of the
     fraction of their neighbours within ``radius`` of the same phase."""
-    from .neighbors import radius_search
-
     x = np.asarray(x, dtype=np.float64)
     phase = np.asarray(phase)
-    nb = radius_search(x, radius, exclude_self=True)
-    rec = nb.receivers()
-    same = np.bincount(rec, weights=(phase[rec] == phase[nb.index]).astype(np.float64),
-                       minlength=len(x))
-    counts = nb.counts
-    frac = np.where(counts > 0, same / np.maximum(counts, 1), np.nan)
+    frac = _same_phase_fraction(x, phase, radius)
     return np.array([np.nanmean(frac[phase == k]) if (phase == k).any() else np.nan
                      for k in range(n_phases)])
 

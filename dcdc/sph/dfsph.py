@@ -109,7 +109,7 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
         it_div, err_div, a = pressure_solve(s, nbh, s.p_div, rate, dt, 0.0, mask,
                                             cfg.divergence_tolerance / dt, diag, cfg)
         s.v += dt * a
-    s.v += dt * non_pressure_acceleration(s, nbh, cfg.no_slip, cfg.surface_tension, s.pair_k)
+    s.v += dt * non_pressure_acceleration(s, nbh, cfg.no_slip, cfg.surface_tension)
     smooth_velocity(s, nbh, cfg.xsph)
     rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
     psi_star = nbh.psi + dt * rate

@@ -10,16 +10,17 @@ from .terms import (cohesion_acceleration, interface_acceleration, mixture_densi
 
 
 def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
-                              surface_tension: float, pair_k=None) -> np.ndarray:
-    """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + Akinci
+                              surface_tension: float) -> np.ndarray:
+    """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + the walls'
+    hydrostatic share (``wall_buoyancy``) + interfacial tension (``s.pair_k``) + Akinci
     cohesion."""
     a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, no_slip, nbh.rs, nbh.idx, nbh.G,
                                s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
     if nbh.wall_moment is not None:
         a += wall_hydrostatic_acceleration(s, nbh)
-    if pair_k is not None:
-        a += interface_acceleration(s.x, s.phase, s.rho0, pair_k, nbh.rs, nbh.idx, s.h, s.V0)
+    if s.pair_k is not None:
+        a += interface_acceleration(s.x, s.phase, s.rho0, s.pair_k, nbh.rs, nbh.idx, s.h, s.V0)
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
     return a

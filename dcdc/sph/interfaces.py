@@ -23,20 +23,21 @@ import math
 import numpy as np
 
 from ..errors import DcdcError
+from .kernels import cubic_values, sigma
 
 
-def _shape(q: np.ndarray) -> np.ndarray:
-    return np.where(q <= 0.5, 6.0 * (q ** 3 - q ** 2) + 1.0, np.where(q <= 1.0, 2.0 * (1.0 - q) ** 3, 0.0))
-
-
-def across_integral(h: float, dim: int, n: int = 4001) -> float:
-    """I of the module doc for the support ``h`` (trapezoidal quadrature); I < 0."""
+def _potential(h: float, n: int = 4001) -> tuple[np.ndarray, np.ndarray]:
+    """φ(r) = -∫_r^h w(s/h) ds tabulated at ``n`` points of [0, h] (trapezoidal rule), with
+    w the cubic spline scaled to w(0) = 1 (:func:`dcdc.sph.kernels.cubic_values` / σ)."""
     r = np.linspace(0.0, h, n)
-    w = _shape(r / h)
-    # φ(r) = -∫_r^h w ds
+    w = cubic_values(r, h, 3)[0] / sigma(h, 3)
     seg = 0.5 * (w[1:] + w[:-1]) * np.diff(r)
-    tail = np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
-    phi = -tail
+    return r, -np.concatenate([np.cumsum(seg[::-1])[::-1], [0.0]])
+
+
+def across_integral(h: float, dim: int) -> float:
+    """I of the module doc for the support ``h`` (trapezoidal quadrature); I < 0."""
+    r, phi = _potential(h)
     if dim == 3:
         return float(math.pi * np.trapezoid(phi * r ** 3, r))
     return float(2.0 * np.trapezoid(phi * r ** 2, r))
@@ -51,15 +52,13 @@ def lattice_across_sum(radius: float, h: float, dim: int) -> float:
     m = int(math.ceil(h / s)) + 1
     tang = np.arange(-m, m + 1) * s
     below = -radius - s * np.arange(m)
-    r = np.linspace(0.0, h, 4001)
-    w = _shape(r / h)
-    tail = np.concatenate([np.cumsum((0.5 * (w[1:] + w[:-1]) * np.diff(r))[::-1])[::-1], [0.0]])
+    r, phi = _potential(h)
     total = 0.0
     for row in range(m):
         P = np.stack(np.meshgrid(*([tang, below] + [tang] * (dim - 2)), indexing="ij"),
                      axis=-1).reshape(-1, dim)
         P[:, 1] -= radius + s * row
-        total += float(np.interp(np.linalg.norm(P, axis=1), r, -tail, right=0.0).sum())
+        total += float(np.interp(np.linalg.norm(P, axis=1), r, phi, right=0.0).sum())
     return total / s ** (dim - 1)
 
 

@@ -81,6 +81,19 @@ def lattice_volume(spacing: float, h: float, dim: int) -> float:
     return 1.0 / float(cubic(r, h, dim).sum())
 
 
+def cubic_values(r: np.ndarray, h: float, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """W(r) and dW/dr of the cubic spline above as numpy array operations (for tables built
+    once: the walls' volume map, the interfacial-tension sums)."""
+    r = np.asarray(r, dtype=np.float64)
+    q = r / h
+    s = sigma(h, dim)
+    t = np.clip(1.0 - q, 0.0, None)
+    W = np.where(q <= 0.5, s * (6.0 * (q ** 3 - q ** 2) + 1.0), np.where(q <= 1.0, 2.0 * s * t ** 3, 0.0))
+    dW = np.where(q <= 0.5, s * (18.0 * q * q - 12.0 * q) / h,
+                  np.where(q <= 1.0, -6.0 * s * t ** 2 / h, 0.0))
+    return W, dW
+
+
 def cubic(r: np.ndarray, h: float, dim: int) -> np.ndarray:
     """Vectorised W(r) (for tests and analysis; the solver uses the compiled scalars)."""
     r = np.asarray(r, dtype=np.float64)

@@ -8,6 +8,7 @@ searched when a wall friction term needs them."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -73,8 +74,10 @@ def build(x: np.ndarray, walls: np.ndarray | CellGrid, Vb: np.ndarray, h: float,
     return Neighbourhood(ff.row_splits, ff.index, W, G, rsb, idxb, Wb, Gb, psi, counts, Sb)
 
 
+@lru_cache(maxsize=16)
 def full_count(h: float, V0: float, dim: int) -> int:
-    """Neighbours (self included) of a particle inside the rest lattice of spacing V0^(1/d)."""
+    """Neighbours (self included) of a particle inside the rest lattice of spacing V0^(1/d)
+    (cached: :func:`build` asks every substep with the same arguments)."""
     s = V0 ** (1.0 / dim)
     m = int(np.ceil(h / s))
     ax = np.arange(-m, m + 1) * s

@@ -339,9 +339,7 @@ def interface_acceleration(x, phase, rho0, K, rs, idx, h, V0):
             r = math.sqrt(r2)
             if r < 1e-9 * h or r >= h:
                 continue
-            q = r / h
-            w = 6.0 * (q * q * q - q * q) + 1.0 if q <= 0.5 else 2.0 * (1.0 - q) ** 3
-            f = k * w / (m * r)
+            f = k * w_of_r(r, h, 1.0) / (m * r)  # the spline's shape, w(0) = 1
             for a in range(d):
                 out[i, a] += f * (x[j, a] - x[i, a])
     return out

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from ..neighbors import CellGrid
-from .kernels import sigma
+from .kernels import cubic_values
 
 MAX_NODES = 20_000_000  # grid nodes; beyond this the cell is coarsened (and said so)
 
@@ -48,21 +48,10 @@ def _kernel_stencil(cell: float, h: float, d: int):
     ax = np.arange(-m, m + 1) * cell
     z = np.stack(np.meshgrid(*([ax] * d), indexing="ij"), axis=-1)
     r = np.sqrt((z ** 2).sum(-1))
-    W, dW = _kernel_values(r, h, d)
+    W, dW = cubic_values(r, h, d)
     with np.errstate(invalid="ignore", divide="ignore"):
         f = np.where(r > 0, dW / r, 0.0)
     return W, f[..., None] * z
-
-
-def _kernel_values(r: np.ndarray, h: float, d: int):
-    """Vectorised cubic spline W(r) and dW/dr (the formulas of :mod:`dcdc.sph.kernels`)."""
-    q = r / h
-    s = sigma(h, d)
-    t = np.clip(1.0 - q, 0.0, None)
-    W = np.where(q <= 0.5, s * (6.0 * (q ** 3 - q ** 2) + 1.0), np.where(q <= 1.0, 2.0 * s * t ** 3, 0.0))
-    dW = np.where(q <= 0.5, s * (18.0 * q * q - 12.0 * q) / h,
-                  np.where(q <= 1.0, -6.0 * s * t ** 2 / h, 0.0))
-    return W, dW
 
 
 def _convolve(chi: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -214,7 +203,7 @@ def half_space_profile(h: float, dim: int, n: int = 801) -> tuple[np.ndarray, np
     z = np.linspace(0.0, h, n)
     t = np.linspace(0.0, h, n)  # |x_⊥|
     Z, T = np.meshgrid(z, t, indexing="ij")
-    W, _ = _kernel_values(np.sqrt(Z ** 2 + T ** 2), h, dim)
+    W, _ = cubic_values(np.sqrt(Z ** 2 + T ** 2), h, dim)
     wt = 2.0 * np.ones_like(t) if dim == 2 else 2.0 * np.pi * t  # line / ring measure
     M = np.trapezoid(W * wt, t, axis=1)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (M[1:] + M[:-1]) * np.diff(z))])
@@ -235,7 +224,7 @@ def wall_offset(radius: float, h: float, dim: int, V0: float) -> float:
     axes = [tang, rows] + [tang] * (dim - 2)
     P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
     P[:, 1] -= radius
-    W, _ = _kernel_values(np.linalg.norm(P, axis=1), h, dim)
+    W, _ = cubic_values(np.linalg.norm(P, axis=1), h, dim)
     need = 1.0 - V0 * float(W.sum())
     z, psi = half_space_profile(h, dim)
     if need <= 0.0:
