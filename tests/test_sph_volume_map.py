@@ -93,3 +93,23 @@ def test_half_space_profile_is_one_half_at_the_surface():
         assert psi[0] == pytest.approx(0.5, abs=2e-3)
         assert psi[-1] == pytest.approx(0.0, abs=1e-9)
         assert np.all(np.diff(psi) <= 1e-12)
+
+
+def test_contact_moves_points_out_of_the_solid_and_stops_them_entering():
+    """VolumeMap.keep_outside: a point inside the floor goes back to Ψ = 1/2, loses its
+    velocity into the floor and keeps its velocity along it; fluid outside is untouched."""
+    sy = _tank(2)
+    vm = _maps(sy)[0]
+    x = np.array([[0.2, -0.4 * R], [0.25, -0.2 * R], [0.2, 1.0 * R]])
+    v = np.array([[1.0, -2.0], [0.0, -1.0], [0.5, -3.0]])
+    x0, v0 = x.copy(), v.copy()
+    assert (vm.sample(x)[0][:2] > 0.5).all()
+    assert vm.keep_outside(x, v) == 2
+    psi, grad = vm.sample(x)
+    assert np.abs(psi[:2] - 0.5).max() < 2e-3
+    assert np.abs(x[:2, 0] - x0[:2, 0]).max() < 1e-3 * R  # pushed straight up, out of the floor
+    assert (x[:2, 1] > x0[:2, 1]).all()
+    np.testing.assert_allclose(v[:2, 1], 0.0, atol=1e-3)   # no velocity into the floor
+    np.testing.assert_allclose(v[:2, 0], v0[:2, 0], atol=1e-3)  # free slip along it
+    np.testing.assert_array_equal(x[2], x0[2])
+    np.testing.assert_array_equal(v[2], v0[2])

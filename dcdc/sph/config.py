@@ -19,6 +19,13 @@ class SPHConfig:
         2015) or "wcsph" (explicit weakly compressible, Becker & Teschner 2007; cross-check).
     support: kernel support h in particle radii (h = support · r; DESIGN §2: 4).
     cfl: Courant number; a substep moves no particle more than cfl · 2r.
+    correction_speed: the constant-density solve removes a density error already present at
+        most at the rate u_c / 2r per second [m/s] (new compression is still stopped in
+        full); without the bound it removes all of it in one substep, with a velocity
+        (ψ - 1)·2r/Δt that grows as Δt shrinks: after a block landed on a floor, that kick
+        sent particles past 50 m/s (171 of 1 000 random 2-D scenes, docs/sph.md,
+        "Impacts"). At rest the error is ~1e-3, far below u_c·Δt/2r = 0.1 (5 ms substeps,
+        r = 2.5 cm), so the bound is idle there. 0 = unbounded (DFSPH as published).
     speed_floor: the CFL condition uses max(|v|_max, speed_floor) [m/s], so substeps shrink
         with the particle size even in a fluid at rest (Δt <= cfl·2r/speed_floor: 5 ms at
         r = 2.5 cm, 2.5 ms at 1.25 cm); a heavy layer over a light one at r = 1.25 cm
@@ -55,6 +62,7 @@ class SPHConfig:
     solver: str = "dfsph"
     support: float = 4.0
     cfl: float = 0.4
+    correction_speed: float = 1.0
     speed_floor: float = 4.0
     dt_max: float = 0.005
     dt_min: float = 1e-6
@@ -88,7 +96,7 @@ class SPHConfig:
                     "divergence_tolerance", "omega", "stiffness_exponent", "max_speed")
         for name in positive:
             _check_number(self, name, lambda v: v > 0, "> 0")
-        for name in ("viscosity", "xsph", "surface_tension", "sound_speed"):
+        for name in ("viscosity", "xsph", "surface_tension", "sound_speed", "correction_speed"):
             _check_number(self, name, lambda v: v >= 0, ">= 0")
         for name in ("min_iterations", "max_iterations"):
             v = getattr(self, name)

@@ -5,8 +5,10 @@ One substep of length Δt:
 1. divergence-free solve: pressures p_div >= 0 with  Dψ/Dt(v + Δt a(p_div)) = 0  where the
    flow compresses (particles with a full neighbourhood only, as in DFSPH);
 2. non-pressure forces: v* = v + Δt (g + viscosity + cohesion);
-3. constant-density solve: pressures p >= 0 with  ψ + Δt Dψ/Dt(v* + Δt a(p)) = 1;
-4. v = v* + Δt a(p),  x += Δt v.
+3. constant-density solve: pressures p >= 0 with  ψ + Δt Dψ/Dt(v* + Δt a(p)) = ψ_target,
+   ψ_target = max(1, ψ - Δt u_c/2r): new compression is stopped in full, a density error
+   already present is removed at most at the rate u_c/2r (``SPHConfig.correction_speed``);
+4. v = v* + Δt a(p),  x += Δt v  (then the walls' contact, :meth:`VolumeMap.keep_outside`).
 
 Both solves are the same linear complementarity problem A p = s, p >= 0, where A is the map
 p -> Dψ/Dt(a(p)) of :mod:`dcdc.sph.terms`, solved by relaxed Jacobi with the exact diagonal
@@ -114,7 +116,14 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
     rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
     psi_star = nbh.psi + dt * rate
     mask = full & (psi_star >= 1.0 - SURFACE_GAP)
-    it, err, a = pressure_solve(s, nbh, s.p, psi_star, dt * dt, 1.0, mask,
+    base = psi_star
+    if cfg.correction_speed > 0:
+        diameter = 2.0 * s.h / cfg.support
+        # the density error already present is removed at most at the rate u_c / 2r per
+        # second (target max(1, ψ - Δt u_c/2r)); new compression is still stopped in full
+        slack = np.maximum(nbh.psi - 1.0 - dt * cfg.correction_speed / diameter, 0.0)
+        base = psi_star - slack
+    it, err, a = pressure_solve(s, nbh, s.p, base, dt * dt, 1.0, mask,
                                 cfg.density_tolerance, diag, cfg)
     s.v += dt * a
     s.x += dt * s.v

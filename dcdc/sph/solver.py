@@ -98,6 +98,8 @@ class Simulator:
                 info = dfsph.substep(s, nbh, dt, cfg)
             else:
                 info = wcsph.substep(s, nbh, dt, cfg, self._sound_speed)
+            if self.volume_map is not None:
+                self.volume_map.keep_outside(s.x, s.v)
             self._store(active, s)
             if active is None:
                 p_sum += dt * (s.p + s.p_div)
