@@ -6,12 +6,12 @@ import pytest
 import torch
 
 from dcdc import metrics as M
-from dcdc.cli import main
 from dcdc.data.dataset import Dataset
 from dcdc.evaluate.rollout import Guard
 from dcdc.evaluate.scores import aggregate, number_density, one_two_step_errors, score_trajectory
 from dcdc.model.checkpoint import save_checkpoint
 from dcdc.model.networks import build_network
+from helpers import dcdc_output as _cli
 
 SAMPLE = "data/sample/test2d"
 DT = 0.02
@@ -88,16 +88,6 @@ def ckpts(tmp_path_factory):
     save_checkpoint(d / "zero.pt", zero_net())
     save_checkpoint(d / "m3.pt", build_network("cconv", 3))
     return d
-
-
-def _cli(args, capsys):
-    code = 0
-    try:
-        main(args)
-    except SystemExit as e:
-        code = e.code or 0
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_evaluate_cli_two_models_json_and_plots(ckpts, tmp_path, capsys):

@@ -49,18 +49,10 @@ def test_bad_export_input(tmp_path):
 # ----------------------------------------------------------------- dcdc export (whole runs)
 import xml.etree.ElementTree as ET  # noqa: E402
 
-from dcdc.cli import main  # noqa: E402
 from dcdc.render.figures import open_trajectory  # noqa: E402
+from helpers import dcdc_exit as _cli  # noqa: E402
 
 SAMPLE = "data/sample/test2d/hourglass_2d.h5"
-
-
-def _cli(*args):
-    try:
-        main([str(a) for a in args])
-        return 0
-    except SystemExit as e:
-        return e.code
 
 
 def test_export_vtu_series_reads_back_with_meshio(tmp_path):

@@ -2,7 +2,6 @@
 import numpy as np
 import pytest
 
-from dcdc.cli import main
 from dcdc.errors import DcdcError
 from dcdc.render.benchmark import block_trajectory
 from dcdc.render.camera import fit_camera
@@ -10,16 +9,9 @@ from dcdc.render.compare import mean_nearest_distance, nearest_distance
 from dcdc.render.figures import Figure, open_trajectory, select_frames, strip_frames
 from dcdc.render.frames import BACKGROUND, FrameRenderer, default_camera
 from dcdc.render.splat import splat
+from helpers import dcdc_exit as cli
 
 SAMPLE = "data/sample/test2d"
-
-
-def cli(*args):
-    try:
-        main([str(a) for a in args])
-        return 0
-    except SystemExit as e:
-        return e.code
 
 
 @pytest.fixture(scope="module")

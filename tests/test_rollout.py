@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 import torch
 
-from dcdc.cli import main
 from dcdc.data.dataset import Dataset
 from dcdc.errors import DcdcError
 from dcdc.evaluate.rollout import Guard, NeuralSimulator, RolloutStopped, run
 from dcdc.model.checkpoint import save_checkpoint
 from dcdc.model.networks import build_network
 from dcdc.particles import ParticleSystem, Phase
+from helpers import dcdc_output as _cli
 
 SAMPLE = "data/sample/train2d"
 DT, G = 0.02, -9.81
@@ -172,17 +172,6 @@ def ckpts(tmp_path_factory):
     save_checkpoint(d / "m3.pt", build_network("cconv", 3))
     save_checkpoint(d / "zero.pt", zero_net())
     return d
-
-
-def _cli(args, capsys):
-    """(exit status, stdout, stderr) of ``dcdc ARGS``."""
-    code = 0
-    try:
-        main(args)
-    except SystemExit as e:
-        code = e.code or 0
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_simulate_dataset_writes_the_dataset_layout(ckpts, tmp_path, capsys):

@@ -10,19 +10,11 @@ import tempfile
 import numpy as np
 import pytest
 
-from dcdc.cli import main
 from dcdc.render.figures import open_trajectory
 from dcdc.render.view import page_data, render_page, view_frames
+from helpers import dcdc_exit as _cli
 
 SAMPLE = "data/sample/test2d/hourglass_2d.h5"
-
-
-def _cli(*args):
-    try:
-        main([str(a) for a in args])
-        return 0
-    except SystemExit as e:
-        return e.code
 
 
 def test_view_frames_subsample():
