@@ -62,8 +62,8 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
 
     from .data import interrupt
     from .data.dataset import Dataset
-    from .data.generate import code_version, run_job, scene_jobs
-    from .data.outputs import atomic_dir, check_dir
+    from .data.jobs import code_version, run_job, scene_jobs
+    from .outputs import atomic_dir, check_dir
     from .export import write_points
     from .render import animate, snapshot_strip
     from .scene import parse

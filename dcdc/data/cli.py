@@ -80,7 +80,7 @@ def _report_corrupt(check) -> None:
 def merge_command(output, inputs, overwrite):
     """Join INPUTS (shard directories or .h5 files) into OUTPUT (a .h5 file, or a directory)."""
     from .dataset import merge
-    from .outputs import check_dir, check_file
+    from ..outputs import check_dir, check_file
     if output.endswith(".h5"):
         check_file(output, overwrite)
     else:

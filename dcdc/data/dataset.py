@@ -43,7 +43,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from ..particles import ParticleSystem, Phase
-from .outputs import TMP_MARK, atomic_file
+from ..outputs import TMP_MARK, atomic_file
 
 FORMAT = "dcdc-dataset"
 FORMAT_VERSION = 2  # 2: Fletcher-32 on every array, attrs_sha256

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from .dataset import Dataset
-from .outputs import atomic_dir, check_dir
+from ..outputs import atomic_dir, check_dir
 
 FLUID, SOLID_WALL = 0, 1
 

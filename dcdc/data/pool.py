@@ -55,7 +55,7 @@ def worker_main(conn, parent_pid: int, threads: int, out_dir: str, simulator: st
     _die_with_parent(parent_pid)
     from ..errors import DcdcError, Interrupted
     from . import interrupt
-    from .generate import run_job, set_threads
+    from .jobs import run_job, set_threads
     try:
         with interrupt.handling((signal.SIGTERM,)):
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
@@ -155,7 +155,7 @@ def _stop(procs, busy, out_dir) -> None:
     """Stop every worker; delete the temporary files of jobs that were in flight."""
     from pathlib import Path
 
-    from .outputs import TMP_MARK
+    from ..outputs import TMP_MARK
     for p, conn in procs:  # idle ones exit; one that just finished its job too
         try:
             conn.send(None)

@@ -77,8 +77,8 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
     from tqdm import tqdm
 
     from ..data import interrupt
-    from ..data.generate import code_version
-    from ..data.outputs import check_file
+    from ..data.jobs import code_version
+    from ..outputs import check_file
     from ..model.checkpoint import check_compatible, load_checkpoint
     from .rollout import Guard, NeuralSimulator, run, write_rollout
 
@@ -179,7 +179,7 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..data.outputs import atomic_file
+    from ..outputs import atomic_file
 
     written = []
     for traj, per_model in results["trajectories"].items():
@@ -224,7 +224,7 @@ def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls
 
     from ..data import interrupt
     from ..data.dataset import Dataset
-    from ..data.outputs import check_dir, check_file, write_text
+    from ..outputs import check_dir, check_file, write_text
     from ..model.checkpoint import check_compatible, load_checkpoint
     from .rollout import Guard
     from .scores import aggregate, score_trajectory

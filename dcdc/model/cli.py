@@ -18,7 +18,7 @@ def model_group():
 def import_dlf_command(weights, out, overwrite):
     """Convert DeepLagrangianFluids' WEIGHTS.pt (their torch state_dict) into a dcdc
     `cconv` checkpoint without the density channel; run it with `dcdc simulate`."""
-    from ..data.outputs import check_file
+    from ..outputs import check_file
     from .dlf import LICENSE, import_dlf
 
     check_file(out, overwrite)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.outputs import atomic_file
+from ..outputs import atomic_file
 from ..errors import DcdcError
 
 

@@ -1,5 +1,5 @@
 """Output paths of the render, export and view commands, on top of the project's
-:mod:`dcdc.data.outputs` (checked before any work, temporary name, renamed when complete,
+:mod:`dcdc.outputs` (checked before any work, temporary name, renamed when complete,
 an existing output replaced only with ``--overwrite``). One addition: an existing
 *directory* is replaced only when it holds nothing but our own kind of files, so
 ``--overwrite`` never deletes a folder of other things (``--out . --overwrite``)."""
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..data.outputs import atomic_dir, atomic_file, check_dir, check_file  # noqa: F401
+from ..outputs import atomic_dir, atomic_file, check_dir, check_file  # noqa: F401
 from ..errors import DcdcError
 
 

@@ -2,7 +2,7 @@
 ``imageio-ffmpeg``, which ships the ffmpeg binary), ``.gif`` (Pillow, one
 adaptive palette per frame) or any name without a suffix: a folder of ``frame_NNNNN.png``.
 A :class:`FrameWriter` writes to the temporary file or folder that
-:func:`dcdc.data.outputs.atomic_file` / ``atomic_dir`` hand out (see :func:`frame_output`),
+:func:`dcdc.outputs.atomic_file` / ``atomic_dir`` hand out (see :func:`frame_output`),
 which rename it when the block ends without error."""
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from ..data.outputs import check_file, write_text
+from ..outputs import check_file, write_text
 
 
 def _summary(system, scene) -> str:
@@ -91,7 +91,7 @@ def copy_command(name, output, overwrite):
 @click.option("--overwrite", is_flag=True, help="Replace existing --output / --image files.")
 def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, output, image, overwrite):
     """A random training scene, reproducible from --seed."""
-    from ..data.generate import check_duration
+    from ..data.jobs import check_duration
     from .random import RandomSceneConfig, random_scene_text
     for path in (output, image):
         if path:

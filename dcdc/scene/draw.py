@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.outputs import atomic_file
+from ..outputs import atomic_file
 from ..particles import ParticleSystem
 from ..render import side_view
 

@@ -17,7 +17,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import DcdcError
+from .errors import DcdcError
 
 TMP_MARK = ".tmp-"  # temporary names: .NAME.tmp-PID (readers skip names starting with ".")
 
