@@ -109,6 +109,58 @@ def test_backends_agree_float32_and_bf16_close():
     assert (c - a).norm() / a.norm() < 2e-2
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("normalize", [False, True])
+def test_float32_geometry_is_the_rounded_float64_geometry(dim, normalize):
+    """``build_geometry(dtype=float32)`` (what a float32 network builds, issue 10) stores the
+    float64 weights rounded, so the layers see exactly what ``weights_as(float32)`` gave."""
+    x = _points(300, dim, seed=3)
+    w = _points(40, dim, seed=4)
+    for send in (None, w):
+        g64 = build_geometry(x, send, radius=R, normalize=normalize)
+        g32 = build_geometry(x, send, radius=R, normalize=normalize, dtype=torch.float32)
+        assert g32.weights.dtype == np.float32 and g64.weights.dtype == np.float64
+        np.testing.assert_array_equal(g32.cells, g64.cells)
+        np.testing.assert_array_equal(g32.weights, g64.weights_as(torch.float32))
+        assert g32.weights_as(torch.float32) is g32.weights  # no conversion pass
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("cout", [2, 3, 5])  # d channels (register sums) and the general loop
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
+def test_collect_output_layer_equals_reference(dim, cout, dtype):
+    """The collect form (C_out ≪ C_in, the output layer) against the slow reference, with the
+    float32 geometry for a float32 layer; gradients equal the torch backend's."""
+    x = _points(120, dim, seed=dim + 5)
+    F = torch.randn(120, 24, dtype=torch.float64)
+    W = _weights(dim, 24, cout) * 0.1
+    ref = torch.as_tensor(reference_cconv(x, x, F, W, R))
+    geom = build_geometry(x, radius=R, dtype=dtype)
+    Ft = F.to(dtype).requires_grad_()
+    Wt = W.to(dtype).requires_grad_()
+    out = cconv(Ft, Wt, geom)
+    tol = 1e-5 if dtype == torch.float32 else 1e-12
+    torch.testing.assert_close(out.double(), ref, rtol=0, atol=tol * float(ref.abs().max()))
+    out.sin().sum().backward()
+    Fr, Wr = F.to(dtype).requires_grad_(), W.to(dtype).requires_grad_()
+    cconv(Fr, Wr, geom, backend="torch").sin().sum().backward()
+    for a, b in ((Ft.grad, Fr.grad), (Wt.grad, Wr.grad)):
+        torch.testing.assert_close(a, b, rtol=0, atol=tol * float(b.abs().max()))
+
+
+def test_chunk_buffers_are_reused_across_calls():
+    """No fresh 8 MiB chunk buffer per layer call: the pool hands back the same memory."""
+    x = _points(200, 3, seed=9)
+    geom = build_geometry(x, radius=R, dtype=torch.float32)
+    F = torch.randn(200, 8)
+    W = _weights(3, 8, 8).float()
+    a = cconv(F, W, geom)
+    ptr = cc._buffer(1, 1, torch.float32).data_ptr()
+    b = cconv(F, W, geom)
+    assert cc._buffer(1, 1, torch.float32).data_ptr() == ptr
+    torch.testing.assert_close(a, b, rtol=0, atol=0)
+
+
 def test_ball_to_cube_mapping_properties():
     """Λ maps the ball into the cube, is odd, and preserves volume (uniform → uniform)."""
     rng = np.random.default_rng(8)

@@ -386,3 +386,85 @@ def test_step_rejects_inputs_that_would_give_nan_or_a_traceback():
         step(net, x, v, rho, wx, wn[:3])
     with pytest.raises(DcdcError, match="velocities"):
         step(net, x, v[:3], rho, wx, wn)
+
+
+# ---------------------------------------------------------------------- fixed costs (issue 10)
+def _reference_context(net, x, rho, wx):
+    """The step context as built before issue 10: a fresh float64 search and geometry per call
+    (``radius_search`` + ``build_geometry`` with float64 weights, no cached wall grid) and the
+    eager density plan. The optimised :meth:`CorrectionNet.prepare` must give the same numbers."""
+    from dcdc.model.networks import StepContext
+    from dcdc.neighbors import radius_search
+
+    c = net.cfg
+    x = np.asarray(x, dtype=np.float64)
+    fluid = build_geometry(x, None, c.radius, c.kernel_size, True, c.normalize,
+                           neighbors=radius_search(x, c.radius, exclude_self=True))
+    wall = build_geometry(x, wx, c.radius, c.kernel_size, False, c.normalize,
+                          neighbors=radius_search(x, c.radius, wx))
+    plan = DensityPlan(fluid, rho, c.density_mode, c.max_classes) if (
+        net.conditioned or net.antisymmetric) else None
+    return StepContext(fluid, wall, plan)
+
+
+def _outputs_and_grads(net, x, v, rho, wx, wn, ctx):
+    net.zero_grad(set_to_none=True)
+    vt = torch.tensor(v, dtype=torch.float32, requires_grad=True)
+    dx = net(torch.tensor(x, dtype=torch.float32), vt, rho, wx, wn, ctx=ctx)
+    (dx.square().sum() + dx.sin().sum()).backward()
+    grads = [vt.grad] + [p.grad if p.grad is not None else torch.zeros_like(p)
+                         for p in net.parameters()]
+    return dx.detach(), grads
+
+
+@pytest.mark.parametrize("name", list(NETWORKS))
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("mode", ["classes", "edges"])
+def test_optimised_prepare_equals_reference_path(name, dim, mode):
+    """float32 weights written by the geometry kernel, the cached wall grid, the lazy density
+    plan and the register-summed output layer: outputs and every gradient equal the previous
+    path to 1e-5 relative in float32 (over two steps, the second reusing the wall grid)."""
+    torch.manual_seed(0)
+    net = build_network(name, dim, channels=[8, 12, 12], density_mode=mode)
+    x, v, rho, wx, wn = _scene(dim, 5 if dim == 3 else 9)
+    for k in range(2):
+        xk = (x + 0.01 * k).astype(np.float32).astype(np.float64)  # the net sees float32
+        ref, ref_g = _outputs_and_grads(net, xk, v, rho, wx, wn, _reference_context(net, xk, rho, wx))
+        ctx = net.prepare(torch.tensor(xk, dtype=torch.float32), rho, wx)
+        new, new_g = _outputs_and_grads(net, xk, v, rho, wx, wn, ctx)
+        rctx = _reference_context(net, xk, rho, wx)
+        for g_new, g_ref in ((ctx.fluid, rctx.fluid), (ctx.wall, rctx.wall)):
+            assert np.array_equal(g_new.row_splits, g_ref.row_splits)
+            assert np.array_equal(g_new.src, g_ref.src) and np.array_equal(g_new.cells, g_ref.cells)
+            assert g_new.weights.dtype == np.float32
+            assert np.array_equal(g_new.weights, g_ref.weights.astype(np.float32))
+        assert torch.allclose(new, ref, rtol=0, atol=1e-5 * float(ref.abs().max()))
+        scale = max(float(g.abs().max()) for g in ref_g)
+        for a, b in zip(new_g, ref_g):
+            tol = 1e-5 * max(float(b.abs().max()), 1e-3 * scale)  # floor: cancelling sums
+            assert torch.allclose(a, b, rtol=0, atol=tol)
+    assert net._wall_grids.builds == 1  # static walls: binned once
+    net.prepare(x, rho, wx + 0.01)  # moved walls: rebuilt
+    assert net._wall_grids.builds == 2
+
+
+def test_wall_grid_cache_follows_scene_batches():
+    """The cached wall grids of a batch of scenes give the per-scene search exactly."""
+    from dcdc.model.networks import Scenes
+
+    net = _net("dcdc", 3)
+    x, _, rho, wx, _ = _scene(3, 4)
+    xb = np.concatenate([x, x + 3.0])
+    wb = np.concatenate([wx, wx[:10] + 3.0])
+    sc = Scenes.from_counts([len(x)] * 2, [len(wx), 10])
+    ctx = net.prepare(xb, np.concatenate([rho, rho]), wb, scenes=sc)
+    ctx2 = net.prepare(xb, np.concatenate([rho, rho]), wb, scenes=sc)
+    assert net._wall_grids.builds == 1
+    from dcdc.model.networks import _search
+
+    ref = _search(xb, net.cfg.radius, wb, sc)
+    for c in (ctx, ctx2):
+        assert np.array_equal(c.wall.row_splits, ref.row_splits)
+        assert np.array_equal(c.wall.src, ref.index)
+    net.prepare(xb, np.concatenate([rho, rho]), wb, scenes=Scenes.from_counts([len(x)] * 2, [20, 30]))
+    assert net._wall_grids.builds == 2  # other scene offsets: rebuilt

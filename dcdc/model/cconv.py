@@ -41,6 +41,7 @@ is treated as constant (as open3d's op does); see docs/model.md.
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 from dataclasses import dataclass, field
 
@@ -219,9 +220,31 @@ def _spread_bf16(row_splits, src, cells, w, F, r0, r1, out):
 
 @nb.njit(cache=True, parallel=True, fastmath=True)
 def _collect(row_splits, src, cells, w, H, out):
-    """out[i] = Σ_{edges e of row i, corners k} w[e,k]·H[src[e], cells[e,k]·C : +C]."""
+    """out[i] = Σ_{edges e of row i, corners k} w[e,k]·H[src[e], cells[e,k]·C : +C].
+
+    The output layer has C = d (2 or 3) channels: those are summed in registers (2× faster
+    than through the output row; same order of terms)."""
     C = out.shape[1]
     nk = cells.shape[1]
+    if C == 3 or C == 2:
+        for i in nb.prange(out.shape[0]):
+            a0 = out.dtype.type(0.0)
+            a1 = out.dtype.type(0.0)
+            a2 = out.dtype.type(0.0)
+            for e in range(row_splits[i], row_splits[i + 1]):
+                hj = H[src[e]]
+                for k in range(nk):
+                    b = cells[e, k] * C
+                    wk = w[e, k]
+                    a0 += wk * hj[b]
+                    a1 += wk * hj[b + 1]
+                    if C == 3:
+                        a2 += wk * hj[b + 2]
+            out[i, 0] = a0
+            out[i, 1] = a1
+            if C == 3:
+                out[i, 2] = a2
+        return
     for i in nb.prange(out.shape[0]):
         row = out[i]
         row[:] = 0.0
@@ -271,7 +294,7 @@ class ConvGeometry:
     row_splits: np.ndarray  # int64 [n_recv + 1]
     src: np.ndarray  # int32 [E]
     cells: np.ndarray  # int32 [E, 2^d]
-    weights: np.ndarray  # float64 [E, 2^d]
+    weights: np.ndarray  # [E, 2^d], float64 or the network's dtype (build_geometry's dtype)
     sender: np.ndarray  # int32 [E]: the real sender particle of each edge
     injective: bool = False  # every virtual sender has exactly one edge (per-edge features)
     _cache: dict = field(default_factory=dict, repr=False)
@@ -288,9 +311,11 @@ class ConvGeometry:
         return np.repeat(np.arange(self.n_recv, dtype=np.int32), np.diff(self.row_splits))
 
     def weights_as(self, dtype: torch.dtype) -> np.ndarray:
+        npdt = _np_dtype(dtype)
+        if self.weights.dtype == npdt:
+            return self.weights
         key = ("w", dtype)
         if key not in self._cache:
-            npdt = torch.empty(0, dtype=dtype).numpy().dtype
             self._cache[key] = np.ascontiguousarray(self.weights, dtype=npdt)
         return self._cache[key]
 
@@ -318,7 +343,7 @@ class ConvGeometry:
 
 def build_geometry(recv_x, send_x=None, radius: float = 0.1125, kernel_size: int = 4,
                    exclude_self: bool | None = None, normalize: bool = False, window: bool = True,
-                   neighbors: Neighbors | None = None) -> ConvGeometry:
+                   neighbors: Neighbors | None = None, dtype=np.float64) -> ConvGeometry:
     """Neighbour search + per-edge corner cells and weights for receivers ``recv_x``.
 
     Args:
@@ -330,6 +355,10 @@ def build_geometry(recv_x, send_x=None, radius: float = 0.1125, kernel_size: int
         normalize: divide the weights by each receiver's window sum.
         window: apply w(d) = (1 - d²/R²)³.
         neighbors: a precomputed :class:`Neighbors` list (skips the search).
+        dtype: dtype of the stored weights (numpy or torch float32/float64). They are always
+            computed in float64; float32 stores the float64 values rounded, exactly what
+            ``weights_as(torch.float32)`` of a float64 geometry returns, without the float64
+            array and the conversion pass (a float32 network passes its dtype).
     """
     rx = _as_numpy(recv_x)
     same = send_x is None
@@ -345,14 +374,29 @@ def build_geometry(recv_x, send_x=None, radius: float = 0.1125, kernel_size: int
         neighbors = radius_search(rx, radius, None if same else sx, exclude_self=exclude_self)
     n_edges = neighbors.n_edges
     nk = 2 ** dim
+    npdt = _np_dtype(dtype)
+    # normalising rescales the stored weights: do it in float64, then round (as before)
+    kernel_dt = np.float64 if normalize else npdt
     cells = np.empty((n_edges, nk), dtype=np.int32)
-    weights = np.empty((n_edges, nk), dtype=np.float64)
+    weights = np.empty((n_edges, nk), dtype=kernel_dt)
     if n_edges:
         _geometry_kernel(rx, sx, neighbors.row_splits, neighbors.index, 1.0 / float(radius),
                          int(kernel_size), bool(window), bool(normalize), cells, weights)
+    if kernel_dt != npdt:
+        weights = weights.astype(npdt)
     index = np.ascontiguousarray(neighbors.index, dtype=np.int32)
     return ConvGeometry(len(rx), len(sx), dim, int(kernel_size), neighbors.row_splits, index,
                         cells, weights, index)
+
+
+def _np_dtype(dtype) -> np.dtype:
+    """numpy dtype of a numpy or torch float dtype (float32 or float64)."""
+    if isinstance(dtype, torch.dtype):
+        dtype = {torch.float32: np.float32, torch.float64: np.float64}.get(dtype, dtype)
+    dt = np.dtype(dtype)
+    if dt not in (np.float32, np.float64):
+        raise DcdcError(f"geometry weights must be float32 or float64 (got {dtype})")
+    return dt
 
 
 def _as_numpy(x) -> np.ndarray:
@@ -364,6 +408,27 @@ def _as_numpy(x) -> np.ndarray:
 # --------------------------------------------------------------------------- numba backend
 def _rows_per_chunk(width: int, itemsize: int) -> int:
     return max(32, CHUNK_BYTES // max(1, width * itemsize))
+
+
+_workspace = threading.local()
+
+
+def _buffer(rows: int, width: int, dtype: torch.dtype, slot: int = 0) -> torch.Tensor:
+    """A [rows, width] scratch tensor from a per-thread pool that lives across calls.
+
+    The chunk buffers of every layer and step come from here instead of a fresh 8 MiB
+    allocation per call (whose pages the kernel had to fault in and zero each time). A
+    buffer is only valid until the next request of the same ``slot`` on this thread: the
+    callers consume each chunk (GEMM into their own output) before asking again."""
+    pool = getattr(_workspace, "pool", None)
+    if pool is None:
+        pool = _workspace.pool = {}
+    itemsize = torch.empty(0, dtype=dtype).element_size()
+    need = rows * width * itemsize
+    raw = pool.get(slot)
+    if raw is None or raw.numel() < need:
+        raw = pool[slot] = torch.empty(max(need, 1), dtype=torch.uint8)
+    return raw[:need].view(dtype).view(rows, width)
 
 
 def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dtype=None):
@@ -387,16 +452,16 @@ def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
         Wf = Wf.to(gemm_dtype)
     rows = min(R, _rows_per_chunk(ncell * cin, F.element_size()))
     if gemm_dtype == torch.bfloat16 and F.dtype == torch.float32:
-        bits = torch.empty(rows, ncell * cin, dtype=torch.int16)
+        bits = _buffer(rows, ncell * cin, torch.int16)
         bitsn = bits.numpy().view(np.uint16)
-        res = torch.empty(rows, cout, dtype=torch.bfloat16)
+        res = _buffer(rows, cout, torch.bfloat16, slot=1)
         for r0 in range(0, R, rows):
             r1 = min(R, r0 + rows)
             _spread_bf16(geom.row_splits, geom.src, geom.cells, w, Fn, r0, r1, bitsn)
             torch.mm(bits[: r1 - r0].view(torch.bfloat16), Wf, out=res[: r1 - r0])
             out[r0:r1] = res[: r1 - r0]
         return out
-    buf = torch.empty(rows, ncell * cin, dtype=F.dtype)
+    buf = _buffer(rows, ncell * cin, F.dtype)
     bufn = buf.numpy()
     for r0 in range(0, R, rows):
         r1 = min(R, r0 + rows)
@@ -427,7 +492,7 @@ def _backward_numba(F, W, gout, geom: ConvGeometry, need_f: bool, need_w: bool):
         Wf = W.detach().reshape(ncell * cin, cout)
         gWf = torch.zeros(ncell * cin, cout, dtype=F.dtype) if need_w else None
         rows = min(max(R, 1), _rows_per_chunk(ncell * cin, F.element_size()))
-        buf = torch.empty(rows, ncell * cin, dtype=F.dtype)
+        buf = _buffer(rows, ncell * cin, F.dtype)
         for r0 in range(0, R, rows):
             r1 = min(R, r0 + rows)
             g = gout[r0:r1]
@@ -446,7 +511,7 @@ def _backward_numba(F, W, gout, geom: ConvGeometry, need_f: bool, need_w: bool):
     gn = gout.numpy()
     Fd = F.detach()
     rows = min(max(V, 1), _rows_per_chunk(ncell * cout, F.element_size()))
-    buf = torch.empty(rows, ncell * cout, dtype=F.dtype)
+    buf = _buffer(rows, ncell * cout, F.dtype)
     for v0 in range(0, V, rows):
         v1 = min(V, v0 + rows)
         _spread(splits, dst, tcells, tw, gn, v0, v1, buf.numpy())
@@ -484,7 +549,8 @@ def _sparse_matrices(geom: ConvGeometry, dtype, device):
         rows = recv * geom.n_cells + geom.cells.reshape(-1)
         cols = np.repeat(geom.src.astype(np.int64), nk)
         idx = torch.from_numpy(np.stack([rows, cols])).to(device)
-        val = torch.from_numpy(geom.weights.reshape(-1)).to(device=device, dtype=dtype)
+        w = geom.weights_as(dtype) if dtype in (torch.float32, torch.float64) else geom.weights
+        val = torch.from_numpy(w.reshape(-1)).to(device=device, dtype=dtype)
         shape = (geom.n_recv * geom.n_cells, geom.n_send)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "sparse CSR support is in beta"

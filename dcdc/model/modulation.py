@@ -139,9 +139,8 @@ class DensityPlan:
         if mode not in ("classes", "edges"):
             raise ValueError(f"unknown density plan mode {mode!r}")
         self.mode = mode
-        self.recv = geom.receivers().astype(np.int64)
-        self.send = geom.sender.astype(np.int64)
         self._edge_geom = None
+        self._lazy: dict = {}  # per-edge index arrays, built on first use (see _edge_arrays)
         if mode == "classes":
             self.uniq = uniq
             self.cls = cls.astype(np.int32).reshape(-1)
@@ -152,16 +151,36 @@ class DensityPlan:
             self._pj = torch.from_numpy(pj.astype(np.int64))
             self._pjc = torch.from_numpy(self.cls[pj].astype(np.int64))
             self._pk = self._pc * len(uniq) + self._pjc  # (receiver class, sender class) pair
-            self._ec = torch.from_numpy(self.cls[self.recv].astype(np.int64))
-            self._es = torch.from_numpy(self.cls[self.send].astype(np.int64))
         else:
             self.pair_geom = self.edge_geom
-        self._recv_t = torch.from_numpy(self.recv)
-        self._send_t = torch.from_numpy(self.send)
+
+    def _edge_arrays(self) -> dict:
+        """Receiver/sender particle (and class) of every edge, int64. Only the per-edge paths
+        (continuous densities, the antisymmetric layer) read them, so a ``dcdc`` step on the
+        class path never builds these E-long arrays."""
+        lz = self._lazy
+        if not lz:
+            lz["recv"] = self.geom.receivers().astype(np.int64)
+            lz["send"] = self.geom.sender.astype(np.int64)
+            lz["recv_t"] = torch.from_numpy(lz["recv"])
+            lz["send_t"] = torch.from_numpy(lz["send"])
+            if self.mode == "classes":
+                lz["ec"] = torch.from_numpy(self.cls[lz["recv"]].astype(np.int64))
+                lz["es"] = torch.from_numpy(self.cls[lz["send"]].astype(np.int64))
+        return lz
+
+    @property
+    def recv(self) -> np.ndarray:
+        return self._edge_arrays()["recv"]
+
+    @property
+    def send(self) -> np.ndarray:
+        return self._edge_arrays()["send"]
 
     def edge_index(self, device) -> tuple[torch.Tensor, torch.Tensor]:
         """(receiver, sender) particle index of every edge, int64 tensors on ``device``."""
-        return self._recv_t.to(device), self._send_t.to(device)
+        lz = self._edge_arrays()
+        return lz["recv_t"].to(device), lz["send_t"].to(device)
 
     def plain_symmetric_edges(self, f: torch.Tensor):
         """Per-edge rows f_i + f_j (the unconditioned antisymmetric layer)."""
@@ -204,7 +223,8 @@ class DensityPlan:
         if self.mode == "classes":
             e = self._embed(embedding, f, self.uniq)
             gam, bet = mod(e[:, None, :], e[None, :, :], eref)
-            ck = self._ec.to(dev) * len(self.uniq) + self._es.to(dev)
+            lz = self._edge_arrays()
+            ck = lz["ec"].to(dev) * len(self.uniq) + lz["es"].to(dev)
             C = gam.shape[-1]
             return (_take(gam.reshape(-1, C), ck) * pair + _take(bet.reshape(-1, C), ck),
                     self.edge_geom)

@@ -31,7 +31,7 @@ import torch
 from torch import nn
 
 from ..errors import DcdcError
-from ..neighbors import Neighbors, radius_search
+from ..neighbors import CellGrid, Neighbors, radius_search
 from ..configs import check, check_types
 from ..particles import DEFAULT_RADIUS, RHO_REF
 from .cconv import ConvGeometry, build_geometry
@@ -157,6 +157,7 @@ class CorrectionNet(nn.Module):
         self.wall_out = CConvLayer(dim, dim, dim, K) if self.antisymmetric else None
         self.profile = False
         self.timings: dict[str, float] = {}
+        self._wall_grids = WallGrids()  # the wall cell lists, kept while the walls stay put
         self.last_context: StepContext | None = None
 
     # ------------------------------------------------------------------ config
@@ -190,13 +191,18 @@ class CorrectionNet(nn.Module):
         c = self.cfg
         xn = _numpy(x)
         wn = _numpy(wall_x) if wall_x is not None else np.zeros((0, self.dim))
+        dtype = next(self.parameters()).dtype
+        if dtype not in (torch.float32, torch.float64):
+            dtype = torch.float64
         with self._timed("search"):
             nb_f = _search(xn, c.radius, None, scenes, exclude_self=True)
-            nb_w = _search(xn, c.radius, wn, scenes) if len(wn) else _empty_neighbors(len(xn))
+            nb_w = (_search(xn, c.radius, wn, scenes, grids=self._wall_grids.get(wn, c.radius, scenes))
+                    if len(wn) else _empty_neighbors(len(xn)))
         with self._timed("geometry"):
-            fluid = build_geometry(xn, None, c.radius, c.kernel_size, True, c.normalize, neighbors=nb_f)
+            fluid = build_geometry(xn, None, c.radius, c.kernel_size, True, c.normalize,
+                                   neighbors=nb_f, dtype=dtype)
             wall = build_geometry(xn, wn if len(wn) else np.zeros((0, self.dim)), c.radius,
-                                  c.kernel_size, False, c.normalize, neighbors=nb_w)
+                                  c.kernel_size, False, c.normalize, neighbors=nb_w, dtype=dtype)
             plan = None
             if self.conditioned or self.antisymmetric:
                 plan = DensityPlan(fluid, density, c.density_mode, c.max_classes)
@@ -289,13 +295,43 @@ class Scenes:
         return len(self.fluid) - 1
 
 
+class WallGrids:
+    """The cell lists of the wall particles (one per scene), rebuilt only when the walls change.
+
+    Walls are static in a rollout and in every showcase, so :meth:`CorrectionNet.prepare`
+    bins them once and only bins the fluid queries each step. The key is the wall array's
+    content (an exact comparison, microseconds for thousands of walls), the radius and the
+    scene offsets; the grids are the ones ``radius_search`` would build, so the neighbour
+    lists are identical."""
+
+    def __init__(self):
+        self._key = None
+        self._points: np.ndarray | None = None
+        self._grids: list | None = None
+        self.builds = 0  # how often the grids were (re)built (tests)
+
+    def get(self, points: np.ndarray, radius: float, scenes: Scenes | None) -> list:
+        offs = None if scenes is None else tuple(scenes.wall.tolist())
+        key = (float(radius), offs, points.shape, points.dtype.str)
+        if (self._key != key or self._points is None
+                or not np.array_equal(self._points, points)):
+            spans = [(0, len(points))] if offs is None else list(zip(offs[:-1], offs[1:]))
+            self._grids = [CellGrid(points[a:b], radius) if b > a else None for a, b in spans]
+            self._points, self._key = np.array(points, copy=True), key
+            self.builds += 1
+        return self._grids
+
+
 def _search(x: np.ndarray, radius: float, points: np.ndarray | None, scenes: Scenes | None,
-            exclude_self: bool = False) -> Neighbors:
+            exclude_self: bool = False, grids: list | None = None) -> Neighbors:
     """Radius search of ``x`` in ``points`` (None: in ``x`` itself), scene by scene.
 
     One cell-list search per scene (scenes may overlap in space, and far-apart scenes would
-    blow up a shared grid); the per-scene CSR lists are joined with index offsets."""
+    blow up a shared grid); the per-scene CSR lists are joined with index offsets.
+    ``grids``: prebuilt cell lists of ``points``, one per scene (:class:`WallGrids`)."""
     if scenes is None:
+        if grids is not None:
+            return grids[0].search(x)
         return radius_search(x, radius, points, exclude_self=exclude_self)
     same = points is None
     offs_p = scenes.fluid if same else scenes.wall
@@ -308,6 +344,8 @@ def _search(x: np.ndarray, radius: float, points: np.ndarray | None, scenes: Sce
         q = x[scenes.fluid[b]:scenes.fluid[b + 1]]
         if same:
             nb = radius_search(q, radius, exclude_self=exclude_self)
+        elif grids is not None:
+            nb = grids[b].search(q) if grids[b] is not None else _empty_neighbors(len(q))
         else:
             p = points[offs_p[b]:offs_p[b + 1]]
             nb = radius_search(q, radius, p) if len(p) else _empty_neighbors(len(q))
