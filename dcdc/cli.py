@@ -34,6 +34,7 @@ BENCHMARKS = {
     "model": "dcdc.model.benchmark:model_command",
     "train": "dcdc.train.benchmark:train_benchmark_command",
     "render": "dcdc.render.benchmark:benchmark_command",
+    "geometry": "dcdc.geometry.benchmark:benchmark_command",
 }
 
 

@@ -60,7 +60,8 @@ WALL_SHAPES = {
                 "depressions": ("int", 3), "depression_depth": ("L0", 0.15),
                 "depression_radius": ("L", 0.3), "slice_z": ("float", None)},
     "mesh": {"file": ("str", REQ), "scale": ("pos", 1.0), "translate": ("vec3L", None),
-             "hollow": ("bool", False), "slice_z": ("float", 0.0)},
+             "hollow": ("bool", False), "slice_z": ("float", 0.0), "thickness": ("L", None),
+             "invert_normals": ("bool", False)},
 }
 FLUID_COMMON = {"phase": ("str", REQ), "shape": ("str", REQ), "velocity": ("vec", None),
                 "name": ("str", None)}
@@ -254,6 +255,12 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
             ck.fail(f"{p}.axis", f"must be 0..{dim - 1}")
         if shape == "hourglass" and walls[name]["neck"] >= walls[name]["radius"]:
             ck.fail(f"{p}.neck", "must be smaller than radius")
+        if shape == "mesh" and walls[name]["thickness"] is not None and walls[name]["hollow"]:
+            ck.fail(f"{p}.hollow", "does not apply to a shell (thickness): its side is behind "
+                    "the faces, or in front of them with invert_normals = true")
+        if shape == "mesh" and walls[name]["thickness"] is None and walls[name]["invert_normals"]:
+            ck.fail(f"{p}.invert_normals", "applies to a shell (give thickness); a closed mesh "
+                    "is oriented automatically and hollow = true puts the fluid inside it")
         if shape == "terrain":
             for k in ("channels", "depressions"):
                 if not 0 <= walls[name][k] <= 16:
@@ -354,11 +361,16 @@ class _Solid:
     sdf: object
     inside: object  # predicate: the fluid space this wall encloses (for shape = "fill")
     bounds: tuple | None = None
+    mesh: object = None  # the trimesh of a mesh wall (for its checks)
 
 
 def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Solid]:
     from ..geometry import shapes as sh
     dim = s["dim"]
+    # mesh SDFs are exact within this distance of the surface (sampled walls, normals,
+    # fill clearances, the SPH volume map), a bound of the right sign beyond
+    spacing = 2 * s["radius"]
+    band = thickness + 2 * spacing + max([f.get("clearance") or 0.0 for f in s["fluid"]] + [spacing])
     out = []
     for name, w in s["walls"].items():
         shape = w["shape"]
@@ -412,14 +424,59 @@ def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Soli
                 p = (base_dir or Path.cwd()) / p
             if not p.exists():
                 raise DcdcError(f"walls.{name}.file: mesh file {p} not found")
-            mesh = sh.load_mesh(p, w["scale"], w["translate"])
-            solid = sh.mesh_solid(mesh) if dim == 3 else sh.mesh_section(mesh, w["slice_z"])
-            sdf = (lambda f: lambda x: -f(x))(solid) if w["hollow"] else solid
+            sdf = _mesh_wall(name, w, p, dim, band, 2 * s["radius"])
             inside = (lambda f: lambda x: f(x) > 0)(sdf)
         else:  # pragma: no cover - validated before
             raise AssertionError(shape)
-        out.append(_Solid(name, sdf, inside))
+        out.append(_Solid(name, sdf, inside, mesh=getattr(sdf, "mesh", None)))
     return out
+
+
+def _mesh_wall(name: str, w: dict, path: Path, dim: int, band: float, spacing: float):
+    """SDF of a mesh wall: the solid a closed mesh encloses (or, hollow, the space around
+    it), or with ``thickness`` a shell behind (invert_normals: in front of) its faces."""
+    from ..geometry import mesh as gm
+    mesh = gm.load_mesh(path, w["scale"], w["translate"])
+    T = w["thickness"]
+    if T is None:
+        gm.require_closed(mesh, f"give walls.{name}.thickness to use it as an open surface "
+                          "(a shell of that thickness behind its faces)")
+        solid = gm.mesh_solid(mesh, band=band) if dim == 3 else gm.mesh_section(mesh, w["slice_z"])
+        sdf = (lambda f: lambda x: -f(x))(solid) if w["hollow"] else solid
+    else:
+        if T < spacing - 1e-12:
+            raise DcdcError(f"walls.{name}.thickness {T:g} is thinner than the particle spacing "
+                            f"2r = {spacing:g}: the shell would have holes between lattice points")
+        behind = not w["invert_normals"]
+        sdf = gm.mesh_shell(mesh, T, behind, band=band) if dim == 3 else \
+            gm.mesh_section_shell(mesh, T, w["slice_z"], behind)
+    sdf.mesh = mesh
+    return sdf
+
+
+def _check_mesh_walls(solids, wx, src: str, lo, hi, spacing: float, thickness: float):
+    """A mesh wall must give wall particles: else one line naming the likely cause."""
+    for w in solids:
+        if w.mesh is None:
+            continue
+        s = w.sdf(wx) if len(wx) else np.zeros(0)
+        if ((s <= 1e-9) & (s >= -thickness - 1e-9)).any():
+            continue
+        m = w.mesh
+        mlo, mhi = np.asarray(m.bounds[0]), np.asarray(m.bounds[1])
+        d = len(lo)
+        ext = mhi - mlo
+        if (mhi[:d] < lo - thickness).any() or (mlo[:d] > hi + thickness).any():
+            cause = (f"the mesh (bounds {np.round(mlo, 3).tolist()} .. {np.round(mhi, 3).tolist()}) "
+                     f"lies outside the domain {np.round(lo, 3).tolist()} .. {np.round(hi, 3).tolist()}")
+        elif ext.min() < spacing:
+            cause = (f"the mesh is thinner ({ext.min():.3g}) than the particle spacing 2r = "
+                     f"{spacing:g}; give thickness = {spacing:g} or more to use it as a shell")
+        else:
+            cause = (f"no lattice point (spacing 2r = {spacing:g}) falls inside its solid; "
+                     "the mesh is too small or too thin for this particle radius")
+        raise DcdcError(f"{src}: walls.{w.name} (mesh {Path(m.metadata.get('dcdc_file', '?')).name}) "
+                        f"yields no wall particles: {cause}")
 
 
 def _union(solids):
@@ -580,6 +637,8 @@ class Scene:
         if solids:
             pad = thickness + spacing
             wx, wn = sample_walls(union, lo - pad, hi + pad, spacing, thickness, anchor)
+            _check_mesh_walls(solids, wx, str(self.path.name) if self.path else self.name,
+                              lo, hi, spacing, thickness)
         else:
             wx, wn = np.zeros((0, dim)), np.zeros((0, dim))
         names = list(s["phases"])
