@@ -269,7 +269,7 @@ def test_benchmark_geometry_cli(tmp_path):
 
     from dcdc.cli import cli
     out = tmp_path / "g.json"
-    r = CliRunner().invoke(cli, ["benchmark", "geometry", "--quick", "--json", str(out)])
+    r = CliRunner().invoke(cli, ["benchmark", "geometry", "--quick", "--no-volume-map", "--json", str(out)])
     assert r.exit_code == 0, r.output
     rec = json.loads(out.read_text())
     rows = {c["mesh"]: c for c in rec["cases"]}

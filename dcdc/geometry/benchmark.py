@@ -104,8 +104,9 @@ max = {v(fluid_hi)}
 """
 
 
-def run_case(name: str, mesh, hollow: bool, tmp: Path) -> dict:
-    """Realise the benchmark scene around ``mesh``; seconds and counts."""
+def run_case(name: str, mesh, hollow: bool, tmp: Path, volume_map: bool = False) -> dict:
+    """Realise the benchmark scene around ``mesh``; seconds and counts (and, with
+    ``volume_map``, the seconds of the SPH solver's volume map of its walls)."""
     from ..scene import load
     obj = tmp / (name.replace(" ", "_") + ".obj")
     mesh.export(obj)
@@ -121,38 +122,57 @@ def run_case(name: str, mesh, hollow: bool, tmp: Path) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     system = load(path).realize()
     wall_s, cpu_s = time.perf_counter() - t0, time.process_time() - c0
-    return {"mesh": name, "triangles": int(len(mesh.faces)), "hollow": hollow,
-            "radius": RADIUS, "domain_lattice_points": int(np.prod(np.floor((hi - lo + 0.3) / (2 * RADIUS)) + 1)),
-            "wall_particles": int(system.n_wall), "fluid_particles": int(system.n_fluid),
-            "seconds": round(wall_s, 3), "cpu_seconds": round(cpu_s, 3)}
+    rec = {"mesh": name, "triangles": int(len(mesh.faces)), "hollow": hollow, "radius": RADIUS,
+           "wall_particles": int(system.n_wall), "fluid_particles": int(system.n_fluid),
+           "seconds": round(wall_s, 3), "cpu_seconds": round(cpu_s, 3)}
+    if volume_map:
+        # what the SPH solver builds next from the same SDF (its default support h = 4r)
+        from ..sph.kernels import lattice_volume
+        from ..sph.solver import _volume_map
+        h = 4 * RADIUS
+        t0, c0 = time.perf_counter(), time.process_time()
+        _volume_map(system, h, lattice_volume(2 * RADIUS, h, 3), True)
+        rec.update(volume_map_seconds=round(time.perf_counter() - t0, 3),
+                   volume_map_cpu_seconds=round(time.process_time() - c0, 3))
+    return rec
 
 
 @click.command("geometry")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write the table as JSON")
 @click.option("--quick", is_flag=True, help="only the two smallest meshes")
-def benchmark_command(json_path, quick):
+@click.option("--volume-map/--no-volume-map", default=True, show_default=True,
+              help="also time the SPH solver's volume map of the walls (cell r/2)")
+@click.option("--note", default="", help="free text stored in the JSON (e.g. what else ran)")
+def benchmark_command(json_path, quick, volume_map, note):
     """Seconds to prepare mesh walls (r = 2.5 cm) for meshes of 1 280 - 100 000 triangles."""
-    import igl
+    from importlib.metadata import version
+
     import trimesh
 
     cases = CASES[:2] if quick else CASES
     load0 = os.getloadavg()
     rows = []
-    click.echo(f"{'mesh':<16}{'triangles':>10}{'walls':>9}{'s':>8}{'CPU s':>8}")
+    click.echo(f"{'mesh':<16}{'triangles':>10}{'walls':>9}{'s':>8}{'CPU s':>8}"
+               + (f"{'map s':>8}{'map CPU s':>11}" if volume_map else ""))
     with tempfile.TemporaryDirectory() as tmp:
         for name, make, hollow in cases:
-            r = run_case(name, make(), hollow, Path(tmp))
+            r = run_case(name, make(), hollow, Path(tmp), volume_map)
             rows.append(r)
             click.echo(f"{name:<16}{r['triangles']:>10}{r['wall_particles']:>9}"
-                       f"{r['seconds']:>8.2f}{r['cpu_seconds']:>8.2f}")
+                       f"{r['seconds']:>8.2f}{r['cpu_seconds']:>8.2f}"
+                       + (f"{r['volume_map_seconds']:>8.2f}{r['volume_map_cpu_seconds']:>11.2f}"
+                          if volume_map else ""))
     rec = {"benchmark": "geometry",
            "what": "Scene.realize() of a 3-D scene with one mesh wall (r = 2.5 cm): load the "
                    "OBJ, signed distance on the domain lattice, wall particles + normals, "
-                   "fluid checks",
+                   "fluid checks (seconds, cpu_seconds); then the SPH solver's volume map "
+                   "of those walls from the same SDF (volume_map_*)",
+           "note": "wall-clock seconds depend on the machine's load (load averages below); "
+                   "CPU seconds are this process's own" + (f"; {note}" if note else ""),
            "machine": {"cores": os.cpu_count(), "loadavg_1_5_15min_start": [round(x, 2) for x in load0],
                        "loadavg_1_5_15min_end": [round(x, 2) for x in os.getloadavg()],
-                       "libigl": getattr(igl, "__version__", "?"), "trimesh": trimesh.__version__,
+                       "libigl": version("libigl"), "trimesh": trimesh.__version__,
                        "time": time.strftime("%Y-%m-%d %H:%M:%S")},
            "cases": rows}
     if json_path:

@@ -214,6 +214,18 @@ class MeshDistance:
         return self._normals
 
     def side(self, x: np.ndarray, c: np.ndarray, i: np.ndarray) -> np.ndarray:
+        fn = np.asarray(self._mesh.face_normals)
+        r = x - c
+        dot = np.einsum("ij,ij->i", r, fn[i])
+        out = np.where(dot >= 0, 1.0, -1.0)
+        # x - c along the face normal: the face's own side (also right where c lies on an
+        # edge or corner); otherwise c is on an edge or a corner and its pseudonormal decides
+        rest = np.flatnonzero(np.abs(dot) < (1 - 1e-9) * np.sqrt(np.einsum("ij,ij->i", r, r)))
+        if len(rest):
+            out[rest] = self._pseudo_side(x[rest], c[rest], i[rest])
+        return out
+
+    def _pseudo_side(self, x: np.ndarray, c: np.ndarray, i: np.ndarray) -> np.ndarray:
         fn, fue, en, vn = self._pseudonormals()
         t = self.tris[i]
         a, b, cc = t[:, 0], t[:, 1], t[:, 2]
