@@ -148,6 +148,41 @@ def _fill(q, qkeys, p_sorted, order, start, rows, r2, exclude_self, row_splits, 
                     w += 1
 
 
+@nb.njit(cache=True, parallel=True)
+def _fill_capped(q, qkeys, p_sorted, order, start, rows, r2, exclude_self, tmp):
+    """One pass instead of :func:`_count` + :func:`_fill`: the same traversal writes every
+    candidate's index into the query's row of ``tmp`` [n, cap] and advances only on a hit
+    (no branch on the distance test; the slot after the last hit is scratch). Returns the
+    counts; a query with more than cap − 1 neighbours has an incomplete row (the caller
+    then falls back to :func:`_fill`)."""
+    n, d = q.shape
+    last = tmp.shape[1] - 1
+    counts = np.zeros(n, dtype=np.int64)
+    for i in nb.prange(n):
+        qi = q[i]
+        out = tmp[i]
+        w = 0
+        for o in rows:
+            cell = qkeys[i] + o
+            for s in range(start[cell - 1], start[cell + 2]):
+                j = order[s]
+                dist2 = 0.0
+                for k in range(d):  # the sum of squares in the order of _count/_fill
+                    dist2 += (qi[k] - p_sorted[s, k]) ** 2
+                out[min(w, last)] = j
+                w += (dist2 <= r2) & ~(exclude_self & (j == i))
+        counts[i] = w
+    return counts
+
+
+@nb.njit(cache=True, parallel=True)
+def _compact(tmp, row_splits, index):
+    for i in nb.prange(tmp.shape[0]):
+        e0 = row_splits[i]
+        for k in range(row_splits[i + 1] - e0):
+            index[e0 + k] = tmp[i, k]
+
+
 class CellGrid:
     """Points binned into a cell list of edge >= ``radius``, searchable by any queries.
 
@@ -180,9 +215,15 @@ class CellGrid:
         strides = np.cumprod(self.shape[:-1])
         self.rows = sum(g.ravel() * s for g, s in zip(grids, strides)).astype(np.int64)
 
-    def search(self, queries: np.ndarray | None = None, exclude_self: bool = False) -> Neighbors:
+    def search(self, queries: np.ndarray | None = None, exclude_self: bool = False,
+               capacity: int | None = None) -> Neighbors:
         """Points within ``radius`` (inclusive) of each query; ``queries=None`` searches the
-        points themselves (then ``exclude_self`` may leave out the pairs (i, i))."""
+        points themselves (then ``exclude_self`` may leave out the pairs (i, i)).
+
+        ``capacity``: an expected bound on the neighbours of a query. Given, the search runs
+        in one pass through an [n, capacity + 1] scratch array (:func:`_fill_capped`) and
+        falls back to the exact two-pass fill when a query has more; the result is the same
+        list either way. ``None`` (the SPH solver): the two passes count, fill."""
         same = queries is None
         q = self.points if same else np.ascontiguousarray(queries, dtype=self.points.dtype)
         if q.ndim != 2 or q.shape[1] != self.dim:
@@ -196,16 +237,24 @@ class CellGrid:
         r2 = self.radius ** 2
         excl = bool(exclude_self and same)
         args = (q, qkeys, self.sorted, self.order, self.start, self.rows, r2, excl)
-        counts = _count(*args)
+        tmp = None
+        if capacity is not None:
+            tmp = np.empty((nq, int(capacity) + 1), dtype=np.int32)
+            counts = _fill_capped(*args, tmp)
+        else:
+            counts = _count(*args)
         row_splits = np.zeros(nq + 1, dtype=np.int64)
         np.cumsum(counts, out=row_splits[1:])
         index = np.empty(row_splits[-1], dtype=np.int32)
-        _fill(*args, row_splits, index)
+        if tmp is not None and counts.max() <= capacity:
+            _compact(tmp, row_splits, index)
+        else:
+            _fill(*args, row_splits, index)
         return Neighbors(row_splits, index)
 
 
 def radius_search(queries: np.ndarray, radius: float, points: np.ndarray | None = None,
-                  exclude_self: bool = False) -> Neighbors:
+                  exclude_self: bool = False, capacity: int | None = None) -> Neighbors:
     """All ``points`` within distance ``radius`` (inclusive) of each query.
 
     Args:
@@ -213,13 +262,15 @@ def radius_search(queries: np.ndarray, radius: float, points: np.ndarray | None 
         radius: search radius.
         points: [Np, d] positions to search; defaults to ``queries`` (self-search).
         exclude_self: with a self-search, leave out the pair (i, i).
+        capacity: expected bound on neighbours per query (one-pass search, same result;
+            :meth:`CellGrid.search`).
     """
     q = np.ascontiguousarray(queries)
     if q.dtype not in (np.float32, np.float64):
         q = q.astype(np.float64)
     if points is None:
-        return CellGrid(q, radius).search(None, exclude_self)
+        return CellGrid(q, radius).search(None, exclude_self, capacity)
     p = np.asarray(points)
     if q.ndim != 2 or p.ndim != 2 or q.shape[1] != p.shape[1] or q.shape[1] not in (2, 3):
         raise DcdcError(f"radius_search needs [N, 2|3] arrays, got {q.shape} and {p.shape}")
-    return CellGrid(p, radius, dtype=q.dtype).search(q)
+    return CellGrid(p, radius, dtype=q.dtype).search(q, capacity=capacity)

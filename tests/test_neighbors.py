@@ -72,3 +72,26 @@ def test_cell_grid_built_once_serves_moving_queries(dim):
         tree = cKDTree(walls)
         assert got == {(i, j) for i, js in enumerate(tree.query_ball_point(q, 0.15)) for j in js}
     assert CellGrid(np.zeros((0, dim)), 0.1).search(q).n_edges == 0
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_one_pass_search_equals_two_pass_search(dim, dtype):
+    """``capacity`` (the network's one-pass search, issue 10) gives the identical CSR list,
+    order included, whether the bound holds or a query overflows it (two-pass fallback)."""
+    from dcdc.neighbors import CellGrid
+
+    rng = np.random.default_rng(dim + 10)
+    x = rng.uniform(0, 1, (2000, dim)).astype(dtype)
+    x[:50] = x[0]  # a clump: one query with far more neighbours than the rest
+    walls = rng.uniform(0, 1, (300, dim)).astype(dtype)
+    for pts, queries, excl in ((x, None, True), (x, None, False), (walls, x, False)):
+        grid = CellGrid(pts, 0.1)
+        ref = grid.search(queries, excl)
+        for cap in (1, 30, 1000):
+            nb = grid.search(queries, excl, capacity=cap)
+            np.testing.assert_array_equal(nb.row_splits, ref.row_splits)
+            np.testing.assert_array_equal(nb.index, ref.index)
+    nb = radius_search(x, 0.1, walls, capacity=8)
+    ref = radius_search(x, 0.1, walls)
+    np.testing.assert_array_equal(nb.index, ref.index)

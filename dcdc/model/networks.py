@@ -158,6 +158,7 @@ class CorrectionNet(nn.Module):
         self.profile = False
         self.timings: dict[str, float] = {}
         self._wall_grids = WallGrids()  # the wall cell lists, kept while the walls stay put
+        self._search_caps = (128, 128)  # one-pass search bounds (fluid, wall): _next_capacity
         self.last_context: StepContext | None = None
 
     # ------------------------------------------------------------------ config
@@ -194,10 +195,12 @@ class CorrectionNet(nn.Module):
         dtype = next(self.parameters()).dtype
         if dtype not in (torch.float32, torch.float64):
             dtype = torch.float64
+        caps = self._search_caps
         with self._timed("search"):
-            nb_f = _search(xn, c.radius, None, scenes, exclude_self=True)
-            nb_w = (_search(xn, c.radius, wn, scenes, grids=self._wall_grids.get(wn, c.radius, scenes))
-                    if len(wn) else _empty_neighbors(len(xn)))
+            nb_f = _search(xn, c.radius, None, scenes, exclude_self=True, capacity=caps[0])
+            nb_w = (_search(xn, c.radius, wn, scenes, grids=self._wall_grids.get(wn, c.radius, scenes),
+                            capacity=caps[1]) if len(wn) else _empty_neighbors(len(xn)))
+            self._search_caps = (_next_capacity(nb_f), _next_capacity(nb_w))
         with self._timed("geometry"):
             fluid = build_geometry(xn, None, c.radius, c.kernel_size, True, c.normalize,
                                    neighbors=nb_f, dtype=dtype)
@@ -256,6 +259,13 @@ class CorrectionNet(nn.Module):
         if isinstance(conv, DensityCConvLayer):
             return conv(f, ctx.fluid, ctx.plan, self.embedding)
         return conv(f, ctx.fluid)
+
+
+def _next_capacity(nb: Neighbors) -> int:
+    """Neighbour bound for the next step's one-pass search: 1.25 × this step's largest count
+    + 8 (states change little per step; a query above it only costs the two-pass fill)."""
+    most = int(nb.counts.max()) if len(nb.row_splits) > 1 else 0
+    return max(32, int(1.25 * most) + 8)
 
 
 def _empty_neighbors(n: int) -> Neighbors:
@@ -323,16 +333,18 @@ class WallGrids:
 
 
 def _search(x: np.ndarray, radius: float, points: np.ndarray | None, scenes: Scenes | None,
-            exclude_self: bool = False, grids: list | None = None) -> Neighbors:
+            exclude_self: bool = False, grids: list | None = None,
+            capacity: int | None = None) -> Neighbors:
     """Radius search of ``x`` in ``points`` (None: in ``x`` itself), scene by scene.
 
     One cell-list search per scene (scenes may overlap in space, and far-apart scenes would
     blow up a shared grid); the per-scene CSR lists are joined with index offsets.
-    ``grids``: prebuilt cell lists of ``points``, one per scene (:class:`WallGrids`)."""
+    ``grids``: prebuilt cell lists of ``points``, one per scene (:class:`WallGrids`);
+    ``capacity``: the one-pass search bound (:meth:`CellGrid.search`, same result)."""
     if scenes is None:
         if grids is not None:
-            return grids[0].search(x)
-        return radius_search(x, radius, points, exclude_self=exclude_self)
+            return grids[0].search(x, capacity=capacity)
+        return radius_search(x, radius, points, exclude_self=exclude_self, capacity=capacity)
     same = points is None
     offs_p = scenes.fluid if same else scenes.wall
     if scenes.fluid[-1] != len(x) or offs_p[-1] != (len(x) if same else len(points)):
@@ -343,12 +355,13 @@ def _search(x: np.ndarray, radius: float, points: np.ndarray | None, scenes: Sce
     for b in range(scenes.n_scenes):
         q = x[scenes.fluid[b]:scenes.fluid[b + 1]]
         if same:
-            nb = radius_search(q, radius, exclude_self=exclude_self)
+            nb = radius_search(q, radius, exclude_self=exclude_self, capacity=capacity)
         elif grids is not None:
-            nb = grids[b].search(q) if grids[b] is not None else _empty_neighbors(len(q))
+            nb = (grids[b].search(q, capacity=capacity) if grids[b] is not None
+                  else _empty_neighbors(len(q)))
         else:
             p = points[offs_p[b]:offs_p[b + 1]]
-            nb = radius_search(q, radius, p) if len(p) else _empty_neighbors(len(q))
+            nb = radius_search(q, radius, p, capacity=capacity) if len(p) else _empty_neighbors(len(q))
         splits.append(nb.row_splits[1:] + edges)
         index.append(nb.index + np.int32(offs_p[b]))
         edges += nb.n_edges
