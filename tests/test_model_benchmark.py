@@ -55,3 +55,20 @@ def test_train_benchmark_cli_writes_json(tmp_path):
     assert all(r["particle_steps_per_s"] > 0 and r["unroll"] == 2 for r in data["rows"])
     assert set(data["ratios"]) == {"2d_dcdc_over_cconv", "2d_dcdc_over_cconv_cpu",
                                    "3d_dcdc_over_cconv", "3d_dcdc_over_cconv_cpu"}
+
+
+def test_model_benchmark_network_options_and_scaling(tmp_path):
+    """--kernel-size/--channels reach the network; two sizes give a fitted scaling exponent;
+    the breakdown (search, geometry, convolutions) stays in every row."""
+    out = tmp_path / "model.json"
+    res = CliRunner().invoke(model_command, ["--particles", "200,400", "--networks", "dcdc",
+                                             "--repeat", "1", "--kernel-size", "3",
+                                             "--channels", "8,8", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(out.read_text())
+    assert all(r["options"] == {"kernel_size": 3, "channels": [8, 8]} for r in data["rows"])
+    assert all(r["search_ms"] > 0 and r["geometry_ms"] > 0 and r["convolutions_ms"] > 0
+               for r in data["rows"])
+    assert set(data["scaling"]) == {"dcdc"} and "scaling dcdc" in res.output
+    bad = CliRunner().invoke(model_command, ["--particles", "200", "--channels", "a,b"])
+    assert bad.exit_code != 0 and "--channels" in str(bad.exception or bad.output)

@@ -248,15 +248,17 @@ def tank(n: int, dim: int = 3, seed: int = 0):
 
 
 def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antisym"),
-              repeat: int = 5, bf16: bool = False, echo=None, train: bool = False) -> dict:
-    """Time neural steps; with ``train`` a step is forward + backward of a position loss."""
+              repeat: int = 5, bf16: bool = False, echo=None, train: bool = False,
+              net_options: dict | None = None) -> dict:
+    """Time neural steps; with ``train`` a step is forward + backward of a position loss.
+    ``net_options``: network options (e.g. ``kernel_size``, ``channels``) for every network."""
     from .integrator import step
     from .networks import build_network
 
     rows = []
     for name in networks:
         torch.manual_seed(0)
-        net = build_network(name, 3).eval()
+        net = build_network(name, 3, **(net_options or {})).eval()
         if bf16:
             net.set_backend("auto", torch.bfloat16)
         for n in sizes:
@@ -284,7 +286,8 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
             net.profile = False
             parts = {k: v_ / repeat for k, v_ in net.timings.items()}
             mean_total = sum(totals) / repeat
-            row = {"network": name, "particles": len(x), "walls": len(wx),
+            row = {"network": name, "options": dict(net_options or {}),
+                   "particles": len(x), "walls": len(wx),
                    "ms_per_step": min(totals) * 1e3,
                    "ms_per_step_median": statistics.median(totals) * 1e3,
                    "cpu_ms_per_step": cpu * 1e3,
@@ -298,8 +301,21 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
             if echo:
                 echo(row)
     return {"benchmark": "model", "machine": machine_info(), "rows": rows,
+            "scaling": scaling_exponents(rows),
             "note": "no gradients, float32 (+bf16 GEMMs if set); ms_per_step = best of repeats, "
-                    "breakdown = means over repeats (other = mean total - parts)"}
+                    "breakdown = means over repeats (other = mean total - parts); scaling: "
+                    "least-squares slope of log(median ms) over log(particles) per network"}
+
+
+def scaling_exponents(rows) -> dict:
+    """Per network, the fitted b of median ms ∝ N^b (linear cost: b ≈ 1); needs ≥ 2 sizes."""
+    out = {}
+    for name in dict.fromkeys(r["network"] for r in rows):
+        pts = [(r["particles"], r["ms_per_step_median"]) for r in rows if r["network"] == name]
+        if len({n for n, _ in pts}) >= 2:
+            n, ms = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+            out[name] = float(np.polyfit(n, ms, 1)[0])
+    return out
 
 
 def _fmt_row(r):
@@ -319,9 +335,13 @@ def _fmt_row(r):
 @click.option("--bf16/--no-bf16", default=False, show_default=True,
               help="bf16 GEMMs (AMX) for inference")
 @click.option("--train", is_flag=True, help="time forward + backward (a training step)")
+@click.option("--kernel-size", type=int, default=None, help="network option kernel_size "
+              "(default: the architecture's, 4)")
+@click.option("--channels", default=None, help="network option channels, comma-separated "
+              "hidden widths (default: 32,64,64)")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write results here (e.g. benchmarks/model.json)")
-def model_command(particles, networks, repeat, bf16, train, json_path):
+def model_command(particles, networks, repeat, bf16, train, kernel_size, channels, json_path):
     """ms per neural step (search included) per network and particle count."""
     from ..errors import DcdcError
 
@@ -330,18 +350,29 @@ def model_command(particles, networks, repeat, bf16, train, json_path):
     except ValueError:
         raise DcdcError(f"--particles must be comma-separated integers (got {particles!r})") from None
     nets = [s.strip() for s in networks.split(",") if s.strip()]
+    opts = {}
+    if kernel_size is not None:
+        opts["kernel_size"] = kernel_size
+    if channels:
+        try:
+            opts["channels"] = tuple(int(c) for c in channels.split(",") if c.strip())
+        except ValueError:
+            raise DcdcError(f"--channels must be comma-separated integers (got {channels!r})") from None
     info = machine_info()
     if train and bf16:
         raise DcdcError("--bf16 is for inference; leave it out with --train")
     click.echo(f"{'training' if train else 'neural'} step (Δt = 0.02 s), 3-D, "
                f"float32{' + bf16 GEMMs' if bf16 else ''}, "
                f"threads torch {info['torch_threads']} / numba {info['numba_threads']}, "
-               f"load average {info['loadavg_1_5_15min'][0]}")
+               f"load average {info['loadavg_1_5_15min'][0]}"
+               + (f", options {opts}" if opts else ""))
     click.echo("(ms/step: best wall time; cpu ms: CPU time of all threads per step, which "
                "load from other processes inflates less)")
     click.echo(f"{'network':13s} {'N':>7s} {'ms/step':>9s} {'median':>8s} {'search':>8s} {'geometry':>9s} "
                f"{'convs':>8s} {'other':>7s} {'+MiB':>7s} {'RSS MiB':>7s} {'cpu ms':>8s}"
                + (f" {'backward':>9s}" if train else ""))
     res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)),
-                    train=train)
+                    train=train, net_options=opts)
+    for name, b in res["scaling"].items():
+        click.echo(f"scaling {name}: median ms ∝ N^{b:.2f}")
     _write_json(json_path, res)
