@@ -131,15 +131,15 @@ def test_deep_points_of_a_large_container_skip_the_tree():
 # ------------------------------------------------------------------ loading
 def test_per_face_normal_obj_is_merged_into_a_closed_mesh(tmp_path):
     """DLF's Box.obj (one normal per face) reads as 8 corners, closed, volume 16."""
-    files = [cube_obj_per_face_normals(tmp_path / "Box.obj")]
-    if DLF is not None and (DLF / "Box.obj").is_file():
-        files.append(DLF / "Box.obj")
-    for p in files:
+    files = [(cube_obj_per_face_normals(tmp_path / "Box.obj"), 16.0)]
+    if DLF is not None:  # their own files, where shared/ has them
+        files += [(DLF / n, v) for n, v in (("Box.obj", 16.0), ("Fluid.obj", 1.0)) if (DLF / n).is_file()]
+    for p, volume in files:
         raw = trimesh.load(str(p), force="mesh")
         assert not raw.is_watertight  # what trimesh alone makes of it
         m = gm.load_mesh(p)
-        assert m.is_watertight and len(m.vertices) == 8 and m.volume == pytest.approx(16.0)
-        assert not m.metadata["dcdc_flipped"]
+        assert m.is_watertight and len(m.vertices) == 8 and m.volume == pytest.approx(volume)
+        assert m.metadata["dcdc_closed"] and not m.metadata["dcdc_flipped"]
 
 
 def test_dlf_box_as_a_container_scene(tmp_path):
@@ -152,6 +152,38 @@ def test_dlf_box_as_a_container_scene(tmp_path):
     # floor below the fluid: wall particles under y = 0, normals up
     floor = (sy.wall_x[:, 1] < 0) & (np.abs(sy.wall_x[:, 0]) < 0.8) & (np.abs(sy.wall_x[:, 2]) < 0.8)
     assert floor.sum() > 0 and np.allclose(sy.wall_n[floor], [0, 1, 0], atol=1e-6)
+
+
+def test_fins_cancel_and_touching_parts_stay_closed(tmp_path):
+    """Two cubes sharing one edge (4 faces on it: not a manifold, still closed) plus a
+    face and its flipped twin (a fin, as in SPlisHSPlasH's Dragon_50k.obj): closed, the
+    solid is the two cubes."""
+    a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    b = trimesh.creation.box(bounds=[[1, 1, 0], [2, 2, 1]])
+    m = trimesh.util.concatenate([a, b])
+    fin = np.array([[0, 1, 2]]) + len(m.vertices)
+    V = np.concatenate([m.vertices, [[0.2, 0.5, 0.5], [0.8, 0.5, 0.5], [0.5, 0.9, 0.5]]])
+    F = np.concatenate([m.faces, fin, fin[:, ::-1], m.faces[:1]])  # fin pair + a repeated face
+    trimesh.Trimesh(V, F, process=False).export(tmp_path / "two.obj")
+    raw = trimesh.load(str(tmp_path / "two.obj"), force="mesh")
+    assert not raw.is_watertight
+    m = gm.load_mesh(tmp_path / "two.obj")
+    assert m.metadata["dcdc_closed"] and len(m.faces) == 24 and m.volume == pytest.approx(2.0)
+    f = gm.mesh_solid(m, band=0.3)
+    p = rng.uniform(-0.5, 2.5, (4000, 3))
+    exact = sh.union(sh.box([0, 0, 0], [1, 1, 1]), sh.box([1, 1, 0], [2, 2, 1]))(p)
+    near = np.abs(exact) > 1e-9
+    assert (np.sign(f(p))[near] == np.sign(exact)[near]).all()
+
+
+def test_inconsistent_winding_of_a_closed_mesh_is_fixed(tmp_path):
+    box = trimesh.creation.box(extents=[0.4, 0.4, 0.4])
+    F = box.faces.copy()
+    F[:3] = F[:3, ::-1]  # three faces wound the other way
+    trimesh.Trimesh(box.vertices, F, process=False).export(tmp_path / "mixed.obj")
+    assert gm.edge_defects(trimesh.Trimesh(box.vertices, F, process=False))[1] > 0
+    m = gm.load_mesh(tmp_path / "mixed.obj")
+    assert gm.edge_defects(m) == (0, 0) and m.volume == pytest.approx(0.064)
 
 
 def test_inward_wound_mesh_is_flipped(tmp_path):

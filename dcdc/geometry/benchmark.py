@@ -9,12 +9,15 @@ wall-clock time depends on the load, the CPU time much less.
 
 Meshes: subdivided icospheres (1 280 - 81 920 triangles), a (2, 3) torus knot tube
 (non-convex, 100 000 triangles) as an obstacle, and a subdivided box (49 152 triangles)
-used as a hollow container, whose interior points are all far from the surface.
+used as a hollow container, whose interior points are all far from the surface; with
+``--mesh FILE`` any mesh of yours as an obstacle, and SPlisHSPlasH's ``Dragon_50k.obj``
+when ``pysplishsplash`` (the ``splash`` extra) is installed.
 """
 from __future__ import annotations
 
 import json
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -143,23 +146,32 @@ def run_case(name: str, mesh, hollow: bool, tmp: Path, volume_map: bool = False)
 @click.option("--quick", is_flag=True, help="only the two smallest meshes")
 @click.option("--volume-map/--no-volume-map", default=True, show_default=True,
               help="also time the SPH solver's volume map of the walls (cell r/2)")
+@click.option("--mesh", "mesh_files", multiple=True, type=click.Path(exists=True, dir_okay=False),
+              help="also a mesh file of yours, as an obstacle (repeatable); SPlisHSPlasH's "
+                   "Dragon_50k.obj is added when pysplishsplash is installed")
 @click.option("--note", default="", help="free text stored in the JSON (e.g. what else ran)")
-def benchmark_command(json_path, quick, volume_map, note):
+def benchmark_command(json_path, quick, volume_map, mesh_files, note):
     """Seconds to prepare mesh walls (r = 2.5 cm) for meshes of 1 280 - 100 000 triangles."""
     from importlib.metadata import version
 
     import trimesh
 
-    cases = CASES[:2] if quick else CASES
+    cases = list(CASES[:2] if quick else CASES)
+    files = [Path(f) for f in mesh_files]
+    dragon = Path(sys.prefix) / "bin" / "data" / "models" / "Dragon_50k.obj"  # pysplishsplash's data
+    if not quick and dragon.is_file() and dragon not in files:
+        files.append(dragon)
+    for f in files:
+        cases.append((f.name, (lambda f: lambda: trimesh.load(str(f), force="mesh"))(f), False))
     load0 = os.getloadavg()
     rows = []
-    click.echo(f"{'mesh':<16}{'triangles':>10}{'walls':>9}{'s':>8}{'CPU s':>8}"
+    click.echo(f"{'mesh':<18}{'triangles':>10}{'walls':>9}{'s':>8}{'CPU s':>8}"
                + (f"{'map s':>8}{'map CPU s':>11}" if volume_map else ""))
     with tempfile.TemporaryDirectory() as tmp:
         for name, make, hollow in cases:
             r = run_case(name, make(), hollow, Path(tmp), volume_map)
             rows.append(r)
-            click.echo(f"{name:<16}{r['triangles']:>10}{r['wall_particles']:>9}"
+            click.echo(f"{name[:17]:<18}{r['triangles']:>10}{r['wall_particles']:>9}"
                        f"{r['seconds']:>8.2f}{r['cpu_seconds']:>8.2f}"
                        + (f"{r['volume_map_seconds']:>8.2f}{r['volume_map_cpu_seconds']:>11.2f}"
                           if volume_map else ""))

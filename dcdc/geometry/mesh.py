@@ -36,8 +36,11 @@ def load_mesh(path, scale=1.0, translate=None):
 
     Vertices at the same position are merged whatever their normals or texture
     coordinates (an OBJ written with one normal per face, such as DeepLagrangianFluids'
-    ``Box.obj``, otherwise reads as separate faces with open edges); duplicate and
-    degenerate faces are dropped and small holes closed. A closed mesh is oriented
+    ``Box.obj``, otherwise reads as separate faces with open edges); degenerate faces
+    are dropped, a face and its flipped twin cancel (both go; SPlisHSPlasH's
+    ``Dragon_50k.obj`` has 11 such fins), a face repeated with one orientation is kept once,
+    and holes of one or two triangles are closed. A closed mesh (:func:`edge_defects`:
+    non-manifold edges allowed) is oriented
     outwards (an inward-wound one is flipped: the solid is always the enclosed volume);
     an open one keeps the file's orientation (made consistent where it is not). Open
     meshes are returned as such: :func:`mesh_solid` refuses them, :func:`mesh_shell`
@@ -53,20 +56,22 @@ def load_mesh(path, scale=1.0, translate=None):
         raise DcdcError(f"mesh {path} has no triangles")
     mesh = mesh.copy()
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    mesh.update_faces(mesh.unique_faces() & mesh.nondegenerate_faces())
+    mesh.update_faces(_kept_faces(np.asarray(mesh.faces)) & mesh.nondegenerate_faces())
     mesh.remove_unreferenced_vertices()
     if not len(mesh.faces):
         raise DcdcError(f"mesh {path} has no triangles of non-zero area")
-    if not mesh.is_watertight:
+    if edge_defects(mesh)[0]:
         trimesh.repair.fill_holes(mesh)  # a missing triangle or two; larger holes stay open
+    odd, unbalanced = edge_defects(mesh)
+    if not odd and unbalanced:
+        trimesh.repair.fix_winding(mesh)  # closed, but some faces wound the other way
+        odd, unbalanced = edge_defects(mesh)
+    closed = not odd and not unbalanced
     flipped = False
-    if mesh.is_watertight:
-        if not mesh.is_winding_consistent:
-            trimesh.repair.fix_winding(mesh)
-        if mesh.volume < 0:
-            mesh.invert()
-            flipped = True
-    elif not mesh.is_winding_consistent:
+    if closed and mesh.volume < 0:
+        mesh.invert()
+        flipped = True
+    elif not closed and not mesh.is_winding_consistent:
         before = mesh.face_normals.copy()
         trimesh.repair.fix_winding(mesh)
         if (np.einsum("ij,ij->i", before, mesh.face_normals) * mesh.area_faces).sum() < 0:
@@ -74,15 +79,49 @@ def load_mesh(path, scale=1.0, translate=None):
     mesh.apply_scale(scale)
     if translate is not None:
         mesh.apply_translation(np.asarray(translate, dtype=np.float64))
-    mesh.metadata.update(dcdc_file=str(path), dcdc_closed=bool(mesh.is_watertight),
-                         dcdc_open_edges=open_edges(mesh), dcdc_flipped=flipped)
+    mesh.metadata.update(dcdc_file=str(path), dcdc_closed=closed, dcdc_open_edges=odd,
+                         dcdc_flipped=flipped)
     return mesh
 
 
-def open_edges(mesh) -> int:
-    """Number of edges used by exactly one face (0 for a closed surface)."""
-    import trimesh
-    return int(len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)))
+def _kept_faces(F: np.ndarray) -> np.ndarray:
+    """Mask of the faces to keep among duplicates (same three vertices): a face and its
+    flipped twin cancel (a zero-thickness fin, as in SPlisHSPlasH's Dragon_50k.obj) and
+    both go; of faces repeated with one orientation, one stays."""
+    keep = np.ones(len(F), dtype=bool)
+    key = np.sort(F, axis=1)
+    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    r = np.argmin(F, axis=1)
+    rot = F[np.arange(len(F))[:, None], (r[:, None] + np.arange(3)) % 3]
+    even = rot[:, 1] < rot[:, 2]  # the same cyclic order as the sorted triple
+    for g in np.flatnonzero(cnt > 1):
+        idx = np.flatnonzero(inv == g)
+        keep[idx] = False
+        net = int(even[idx].sum()) - int((~even[idx]).sum())
+        pick = idx[even[idx]] if net > 0 else idx[~even[idx]]
+        keep[pick[:min(abs(net), 1)]] = True
+    return keep
+
+
+def edge_defects(mesh) -> tuple[int, int]:
+    """(open edges: used by an odd number of faces, unbalanced edges: not traversed as
+    often in each direction). A surface is closed and consistently wound when both are 0:
+    then it bounds a solid (its winding number is 0 or 1 everywhere off the surface), even
+    where it is not a manifold (edges shared by 4 faces where two parts touch)."""
+    F = np.asarray(mesh.faces, dtype=np.int64)
+    d = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    a, b = d.min(1), d.max(1)
+    _, inv, cnt = np.unique(a * (int(F.max()) + 1) + b, return_inverse=True, return_counts=True)
+    net = np.bincount(inv.ravel(), weights=np.where(d[:, 0] < d[:, 1], 1.0, -1.0))
+    return int((cnt % 2 == 1).sum()), int((net != 0).sum())
+
+
+def is_closed(mesh) -> bool:
+    """Closed and consistently wound (:func:`edge_defects` both 0)."""
+    if "dcdc_closed" in mesh.metadata:
+        return bool(mesh.metadata["dcdc_closed"])
+    return edge_defects(mesh) == (0, 0)
 
 
 def _name(mesh) -> str:
@@ -91,9 +130,11 @@ def _name(mesh) -> str:
 
 def require_closed(mesh, hint: str = ""):
     """:class:`DcdcError` unless ``mesh`` is a closed surface."""
-    if not mesh.is_watertight:
-        raise DcdcError(f"mesh {_name(mesh)} is not a closed surface ({open_edges(mesh)} open "
-                        f"edges); {hint or 'dcdc needs a closed mesh that encloses the solid'}")
+    if not is_closed(mesh):
+        odd, unbalanced = edge_defects(mesh)
+        what = f"{odd} open edges" if odd else f"{unbalanced} edges wound the same way twice"
+        raise DcdcError(f"mesh {_name(mesh)} is not a closed surface ({what}); "
+                        f"{hint or 'dcdc needs a closed mesh that encloses the solid'}")
 
 
 # ------------------------------------------------------------------ 3-D distance
