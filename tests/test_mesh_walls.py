@@ -309,3 +309,18 @@ def test_benchmark_geometry_cli(tmp_path):
     want = 4 / 3 * np.pi * (0.5 ** 3 - 0.4 ** 3) / 0.05 ** 3
     for c in rows.values():
         assert c["triangles"] > 1000 and abs(c["wall_particles"] - want) < 0.05 * want
+
+
+def test_splishsplash_dragon_is_closed_and_fast_when_installed(tmp_path):
+    """SPlisHSPlasH's 50 000-triangle dragon (shipped in the pysplishsplash wheel, the
+    optional `splash` extra): closed after its fins cancel, walls at r = 2.5 cm."""
+    import sys
+    pytest.importorskip("pysplishsplash")
+    dragon = Path(sys.prefix) / "bin" / "data" / "models" / "Dragon_50k.obj"
+    if not dragon.is_file():
+        pytest.skip("pysplishsplash installed without its data/models")
+    from dcdc.geometry.benchmark import run_case
+    m = gm.load_mesh(dragon)
+    assert m.metadata["dcdc_closed"] and m.volume > 0
+    r = run_case("dragon", trimesh.load(str(dragon), force="mesh"), False, tmp_path)
+    assert r["wall_particles"] > 500

@@ -469,9 +469,9 @@ def _check_mesh_walls(solids, wx, src: str, lo, hi, spacing: float, thickness: f
         if (mhi[:d] < lo - thickness).any() or (mlo[:d] > hi + thickness).any():
             cause = (f"the mesh (bounds {np.round(mlo, 3).tolist()} .. {np.round(mhi, 3).tolist()}) "
                      f"lies outside the domain {np.round(lo, 3).tolist()} .. {np.round(hi, 3).tolist()}")
-        elif ext.min() < spacing:
-            cause = (f"the mesh is thinner ({ext.min():.3g}) than the particle spacing 2r = "
-                     f"{spacing:g}; give thickness = {spacing:g} or more to use it as a shell")
+        elif ext[:d].min() < spacing:
+            cause = (f"the mesh is thinner ({ext[:d].min():.3g}) than the particle spacing 2r = "
+                     f"{spacing:g}: scale it up or use a smaller radius")
         else:
             cause = (f"no lattice point (spacing 2r = {spacing:g}) falls inside its solid; "
                      "the mesh is too small or too thin for this particle radius")
