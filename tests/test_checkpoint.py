@@ -157,3 +157,20 @@ def test_cconv_without_density_input_is_the_dlf_layout():
     assert plain.conv0_fluid.weight.shape[1] == 4  # [1, v]: DeepLagrangianFluids' input
     assert build_network("cconv", 3).conv0_fluid.weight.shape[1] == 5  # + log(1 + ρ/ρ_ref)
     assert build_network("dcdc", 3).config()["density_input"] is False
+
+
+def test_shipped_models_load_by_name_and_match_their_card():
+    """The pretrained checkpoints in dcdc/assets/models load by bare name (docs/models.md);
+    a name that is neither a file nor a shipped model says which models are shipped."""
+    from dcdc.errors import DcdcError
+    from dcdc.model.checkpoint import load_checkpoint, shipped_models
+
+    shipped = shipped_models()
+    assert {"cconv2d", "dcdc2d"} <= set(shipped)
+    for name in ("dcdc2d", "cconv2d"):
+        net, ck = load_checkpoint(name)
+        assert net.name == name[:-2] and net.dim == 2
+        assert ck["extra"]["step"] == ck["extra"]["train_config"]["optim"]["steps"]
+        assert abs(net.cfg.particle_radius - 0.025) < 1e-12 and abs(net.cfg.frame_dt - 0.02) < 1e-12
+    with pytest.raises(DcdcError, match="shipped models: .*dcdc2d"):
+        load_checkpoint("no_such_model")

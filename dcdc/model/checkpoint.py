@@ -96,11 +96,32 @@ def _feed(h, obj) -> None:
         h.update(f"{type(obj).__name__}:{obj!r};".encode())
 
 
+def shipped_models() -> dict[str, Path]:
+    """The pretrained checkpoints shipped with dcdc (``dcdc/assets/models/NAME.pt``, model
+    card in docs/models.md), by name."""
+    from importlib import resources
+
+    root = Path(str(resources.files("dcdc").joinpath("assets", "models")))
+    return {p.stem: p for p in sorted(root.glob("*.pt"))} if root.is_dir() else {}
+
+
+def resolve_model(path) -> Path:
+    """``path`` itself, or for the bare name of a shipped model (``dcdc2d``) its file."""
+    p = Path(path)
+    if not p.exists() and p.suffix == "" and len(p.parts) == 1:
+        shipped = shipped_models()
+        if str(path) in shipped:
+            return shipped[str(path)]
+    return p
+
+
 def read_checkpoint(path) -> dict:
-    """The validated checkpoint dict (no network built): format, version and digest."""
-    path = Path(path)
+    """The validated checkpoint dict (no network built): format, version and digest.
+    ``path`` may be the name of a shipped model (:func:`shipped_models`)."""
+    path = resolve_model(path)
     if not path.is_file():
-        raise DcdcError(f"checkpoint {path} does not exist")
+        names = ", ".join(shipped_models()) or "none"
+        raise DcdcError(f"checkpoint {path} does not exist (shipped models: {names})")
     if not zipfile.is_zipfile(path):  # torch.save writes a zip archive
         raise DcdcError(f"checkpoint {path} is corrupt or not a dcdc checkpoint (not a "
                         f"PyTorch zip archive)")
