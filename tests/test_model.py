@@ -486,3 +486,26 @@ def test_inference_modulated_rows_equal_the_autograd_rows(dtype):
     slow, g2 = plan.modulated(f, mod, emb)
     assert g1 is g2 and slow.requires_grad and not fast.requires_grad
     assert torch.equal(fast, slow.detach())
+
+
+def test_one_pass_search_bound_follows_the_counts():
+    """The one-pass bound tracks the largest neighbour count; a clump far above the mean
+    switches to the two-pass search (no [N, huge] scratch); results are the same."""
+    from dcdc.model.networks import _empty_neighbors, _next_capacity
+    from dcdc.neighbors import radius_search
+
+    x = _block(3, 6)
+    nb = radius_search(x, R, exclude_self=True)
+    assert _next_capacity(nb) == max(32, int(1.25 * nb.counts.max()) + 8)
+    big = _block(3, 12)
+    clump = np.concatenate([big, np.repeat(big[:1], 200, axis=0)])
+    assert _next_capacity(radius_search(clump, R, exclude_self=True)) is None
+    assert _next_capacity(_empty_neighbors(0)) == 32
+    net = _net("cconv", 3)
+    rho = np.full(len(clump), 1000.0)
+    ctx = net.prepare(clump, rho)
+    assert net._search_caps[0] is None
+    ref = radius_search(clump, net.cfg.radius, exclude_self=True)
+    np.testing.assert_array_equal(ctx.fluid.src, ref.index)
+    net.prepare(x, rho[:len(x)])  # back to the one-pass search
+    assert net._search_caps[0] is not None

@@ -261,11 +261,17 @@ class CorrectionNet(nn.Module):
         return conv(f, ctx.fluid)
 
 
-def _next_capacity(nb: Neighbors) -> int:
+def _next_capacity(nb: Neighbors) -> int | None:
     """Neighbour bound for the next step's one-pass search: 1.25 × this step's largest count
-    + 8 (states change little per step; a query above it only costs the two-pass fill)."""
-    most = int(nb.counts.max()) if len(nb.row_splits) > 1 else 0
-    return max(32, int(1.25 * most) + 8)
+    + 8 (states change little per step; a query above it only costs the two-pass fill).
+    ``None`` (the two-pass search) when a clump makes the bound far above the mean count:
+    the one-pass scratch is [queries, bound] and must stay small."""
+    n = len(nb.row_splits) - 1
+    if n == 0:
+        return 32
+    counts = nb.counts
+    cap = max(32, int(1.25 * int(counts.max())) + 8)
+    return cap if cap <= 4 * nb.n_edges / n + 32 else None
 
 
 def _empty_neighbors(n: int) -> Neighbors:
