@@ -5,8 +5,12 @@ particles, four phases re-stratifying)
 with the reference SPH solver, writes the trajectory (HDF5, dataset layout of
 docs/datasets.md), a picture strip, an animation and the last frame as PLY for
 ParaView/Blender, and prints whether the phases ended in the right order (heavy below);
-if they did not, it exits non-zero with that reason. The output folder is checked before
-the simulation and written whole at the end (an existing one only with ``--overwrite``).
+if they did not, it exits non-zero with that reason. With ``--model M`` (a checkpoint or
+a shipped model's name, docs/models.md) the learned simulator runs the same scene from the
+same start: its trajectory, a strip of SPH above the model (same camera, the nearest-
+particle error per panel) and its numbers (steps before the guard stopped it, mean
+nearest-particle error, final order) are added. The output folder is checked before the
+simulation and written whole at the end (an existing one only with ``--overwrite``).
 """
 from __future__ import annotations
 
@@ -54,7 +58,10 @@ def order_ok(traj, frame: int = -1) -> bool:
 @click.option("--overwrite", is_flag=True, help="Replace an existing non-empty --out directory.")
 @click.option("--max-particles", type=float, default=None,
               help="Particle budget (default 1e7 or $DCDC_MAX_PARTICLES).")
-def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles):
+@click.option("--model", "model_path", default=None,
+              help="also run this learned model (checkpoint or shipped name, e.g. dcdc2d) "
+                   "beside SPH")
+def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles, model_path):
     """Simulate a built-in multiphase scene with SPH and write its result.
 
     Exits with status 2 when the phases do not end in density order (heavy below)."""
@@ -69,6 +76,11 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     from .scene import parse
 
     out = check_dir(out_dir, overwrite=overwrite)  # before any work: never after simulating
+    net = None
+    if model_path is not None:  # a wrong or mismatched model fails before the SPH run
+        from .model.checkpoint import check_compatible, load_checkpoint
+        net, _ = load_checkpoint(model_path)
+        check_compatible(net, dim=int(dim), what=f"demo scene {scene} in {dim}-D")
     if resolution is None:
         resolution = DEMO_RESOLUTION if scene == DEMO_SCENE else 1.0
     job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration,
@@ -95,15 +107,60 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
                      {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
         rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
         ok = order_ok(traj)
+        neural = None
+        if net is not None:
+            check_compatible(net, frame_dt=sc.frame_dt, what=f"scene {sc.name}")
+            neural = _neural_beside(net, model_path, sc, job, traj, n_frames, tmp, names)
     click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
     click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
     for (name, rho, y0), (_, _, y1) in zip(rows0, rows1):
         click.echo(f"{name:<12}{rho:>10g}{y0:>16.3f}{y1:>14.3f}")
     click.echo(f"final order heavy-below: {'yes' if ok else 'NO'}")
+    if neural is not None:
+        click.echo(neural)
     for name in names:
         click.echo(f"wrote {out / name}")
     if not ok:
         heights = ", ".join(f"{n} {y:.3f} m" for n, _, y in rows1)
         raise DcdcError(f"final phase order check failed: median heights (lightest first) {heights} "
                         "are not in density order, heavy below")
+
+
+def _neural_beside(net, model_path, sc, job, traj, n_frames: int, tmp, names: list) -> str:
+    """Run ``net`` on the demo scene from the SPH run's start; write its trajectory and a
+    strip of SPH above the model into ``tmp`` (names appended); returns the report line."""
+    import imageio.v3 as iio
+    from tqdm import tqdm
+
+    from .data import interrupt
+    from .data.dataset import Dataset
+    from .evaluate.rollout import NeuralSimulator, run, write_rollout
+    from .render.compare import mean_nearest_distance
+    from .render.figures import Figure, strip_frames
+    from .render.frames import default_camera
+
+    system = sc.realize(dim=job.dim, resolution=job.resolution, frames=n_frames + 1,
+                        max_particles=job.max_particles)
+    sim = NeuralSimulator(net, system)
+    click.echo(f"simulating {job.name} with the learned model {model_path} ({net.name})")
+    with tqdm(total=n_frames, unit="step") as bar:
+        ro = run(sim, n_frames, progress=bar.update, interrupt_check=interrupt.check)
+    name = f"{job.name}_{net.name}"
+    write_rollout(tmp / f"{name}.h5", name, ro, sim.system,
+                  {"scene": sc.name, "frame_dt": sim.dt, "split": "rollout",
+                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path)})
+    pred = Dataset(tmp / f"{name}.h5")[name]
+    n = pred.n_frames
+    err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)
+           for f in range(n)]
+    fig = Figure.build([traj, pred], default_camera(traj, 360), None, 2, True)
+    fig.labels = ["SPH", f"learned: {model_path}"]
+    times = ",".join(f"{t:g}" for t in np.linspace(0.0, traj.time[n - 1], 4).round(2))
+    with open(tmp / f"{name}_compare.png", "wb") as fh:
+        iio.imwrite(fh, fig.strip(strip_frames(traj, times)), extension=".png")
+    names += [f"{name}.h5", f"{name}_compare.png"]
+    stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
+    return (f"learned model: {ro.steps} of {n_frames} steps ({stop}), {ro.ms_per_step:.1f} ms "
+            f"per step, mean nearest-particle error {1e3 * float(np.mean(err)):.1f} mm, "
+            f"final order heavy-below: {'yes' if order_ok(pred) else 'NO'}")

@@ -51,3 +51,29 @@ def test_stratification_order():
     assert not order_ok(_Traj([0.1, 0.2, 1.0, 1.2]), 0)
     assert [r[0] for r in stratification(_Traj([0.1, 0.2, 1.0, 1.2]), 0)] == ["light", "heavy"]
     assert stratification(_Traj([0.1, 0.3, 1.0, 1.2]), 0)[0][2] == 0.2  # median height
+
+
+def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
+    """dcdc demo --model: the learned model runs the same scene from the same start; its
+    trajectory and the SPH-above-model strip are written, its numbers printed."""
+    from helpers import dcdc_output
+
+    out = tmp_path / "demo"
+    code, stdout, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.4",
+                                   "--model", "dcdc2d", "--out", out], capsys)
+    assert code == 0
+    assert "learned model: 20 of 20 steps" in stdout
+    assert (out / "lock_exchange_2d_dcdc.h5").is_file()
+    assert (out / "lock_exchange_2d_dcdc_compare.png").stat().st_size > 10_000
+    from dcdc.data.dataset import Dataset
+    pred = Dataset(out / "lock_exchange_2d_dcdc.h5")["lock_exchange_2d_dcdc"]
+    assert pred.n_frames == 21 and np.isfinite(pred.position).all()
+
+
+def test_demo_refuses_a_model_of_another_dimension_before_simulating(tmp_path, capsys):
+    from helpers import dcdc_output
+
+    code, _, err = dcdc_output(["demo", "--scene", "lock_exchange", "--dim", "3", "--model",
+                                "dcdc2d", "--out", tmp_path / "d"], capsys)
+    assert code == 2 and "2-D" in err and "Traceback" not in err
+    assert not (tmp_path / "d").exists()
