@@ -128,12 +128,59 @@ def test_guard_walls_and_penetration_count():
     # particle 1 falls through the floor at 3 m/s: inside the wall shell after 2 steps
     x = [[0.0, 1.0], [0.3, 0.12]]
     v = [[0.0, 0.0], [0.0, -3.0]]
-    e = _stop(NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=0.0)))
+    e = _stop(NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=0.0),
+                              contact=False))
     assert e.cause == "walls" and e.particle == 1
-    sim = NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=1.0))
+    sim = NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=1.0),
+                          contact=False)
     ro = run(sim, 3)
     assert ro.stopped is None and ro.steps == 3
     assert ro.in_walls.tolist()[0] == 0 and ro.in_walls.max() == 1
+    assert ro.contacts.tolist() == [0, 0, 0]
+
+
+def test_wall_contact_stops_a_particle_at_the_floor():
+    # the same fall with the wall contact: caught at the floor, r/2 above its surface
+    # (y = 0.0125 + r/2 above the top wall row at y = 0), its velocity into the floor removed
+    x = [[0.0, 1.0], [0.3, 0.12]]
+    v = [[0.0, 0.0], [0.0, -3.0]]
+    sim = NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=0.0))
+    ro = run(sim, 3)
+    assert ro.stopped is None and ro.in_walls.max() == 0
+    assert ro.contacts.tolist() == [0, 1, 0]  # caught in step 2; step 3 falls 2 mm from rest
+    surface = 0.025  # the wall rows are the lattice cells of side 2r below y = r
+    y = ro.position[2, 1, 1]
+    assert surface + 0.4 * 0.025 < y < surface + 0.6 * 0.025
+    assert ro.velocity[2, 1, 1] == pytest.approx(0.0, abs=1e-6)  # inelastic
+    assert ro.position[:, 0] == pytest.approx(run(NeuralSimulator(
+        zero_net(), box_system(x, v), guard=Guard(max_in_walls=1.0), contact=False),
+        3).position[:, 0])  # the other particle is untouched
+
+
+def test_wall_contact_never_catches_fluid_at_rest():
+    # the lattice next to a wall, corners included, stays below the catch level (2-D, 3-D)
+    from dcdc.evaluate.rollout import WallContact
+    from dcdc.scene import get_scene
+
+    for dim in (2, 3):
+        sy = get_scene("dam_break").realize(dim=dim, frames=2)
+        c = WallContact(sy)
+        psi, _ = c.map.sample(sy.x)
+        assert c.target < psi.max() < c.limit  # corner particles come closest
+        x, v = sy.x.copy(), sy.v.copy()
+        assert c.apply(x, v) == 0 and (x == sy.x).all()
+
+
+def test_contact_step_is_bounded_deep_in_a_solid():
+    # deep inside a thick solid ∇Ψ -> 0: the Newton step moves at most h/4 per iteration
+    from dcdc.evaluate.rollout import WallContact
+
+    sy = box_system([[0.0, 1.0]], [[0.0, 0.0]])
+    c = WallContact(sy)
+    x = np.array([[0.0, -0.06]])  # 2.4 r below the floor's surface, in its third row
+    v = np.zeros((1, 2))
+    assert c.apply(x, v) == 1
+    assert np.isfinite(x).all() and abs(x[0, 1] + 0.06) <= 3 * c.map.h / 4 + 1e-12
 
 
 def test_run_records_the_stop_and_keeps_good_frames():
@@ -155,7 +202,7 @@ def test_starts_from_a_dataset_frame():
     traj = Dataset(SAMPLE)[0]
     # ballistic, some particles fly into and through the walls: only NaN/speed guard here
     sim = NeuralSimulator(zero_net(), traj.system(10), time=float(traj.time[10]),
-                          guard=Guard(max_in_walls=1.0, check_domain=False))
+                          guard=Guard(max_in_walls=1.0, check_domain=False), contact=False)
     ro = run(sim, 2)
     assert ro.steps == 2 and ro.time == pytest.approx(traj.time[10:13])
     x2, _ = ballistic(traj.position[10], traj.velocity[10], 2)
@@ -196,8 +243,8 @@ def test_simulate_dataset_writes_the_dataset_layout(ckpts, tmp_path, capsys):
 def test_simulate_scene_guard_stop_is_written_and_reported(ckpts, tmp_path, capsys):
     out = tmp_path / "fall.h5"
     code, _, err = _cli(["simulate", "--model", str(ckpts / "zero.pt"), "--scene", "dam_break",
-                         "--dim", "2", "--steps", "200", "--max-in-walls", "0", "--out",
-                         str(out)], capsys)
+                         "--dim", "2", "--steps", "200", "--max-in-walls", "0", "--no-contact",
+                         "--out", str(out)], capsys)
     # the ballistic (untrained, zero) model lets the column fall into the floor
     report = err.strip().split("\n")[-1]  # after the progress bar
     assert code == 2 and report.startswith("error: neural rollout stopped at step")

@@ -320,3 +320,25 @@ def test_resume_skips_a_damaged_checkpoint(tmp_path):
     assert any("from step_00000002.pt (step 2)" in m for m in msgs)
     assert [int(r["step"]) for r in rows(run)] == [1, 2, 3, 4]
     assert load_checkpoint(checkpoints(run)[0])[1]["extra"]["step"] == 4  # rewritten
+
+
+def test_fine_tuning_starts_from_the_given_weights(tmp_path):
+    first = train(tiny("optim.steps=2"), tmp_path / "a", echo=lambda *_: None)
+    msgs = []
+    # lr = 1e-12: one Adam step moves each weight by ~1e-12, so they stay those of model.init
+    path = train(tiny("optim.steps=1", "optim.lr=1e-12", f"model.init='{first}'"), tmp_path / "b",
+                 echo=msgs.append)
+    a, _ = load_checkpoint(first)
+    b, ck = load_checkpoint(path)
+    assert all(torch.allclose(p, q, rtol=0, atol=1e-9) for p, q in zip(a.parameters(), b.parameters()))
+    fresh, _ = load_checkpoint(train(tiny("optim.steps=1", "optim.lr=1e-12", "optim.seed=5"),
+                                     tmp_path / "e", echo=lambda *_: None))
+    assert not torch.allclose(fresh.dense0.weight, b.dense0.weight)  # the test can fail
+    assert any("starting from the weights of" in m for m in msgs)
+    assert ck["extra"]["train_config"]["model"]["init"] == str(first)
+    # another network's weights are refused with one line, before any training
+    with pytest.raises(DcdcError, match=r"model.init: .* holds another network \(channels"):
+        train(tiny("optim.steps=1", f"model.init='{first}'", "model.channels=[4, 8, 8]"),
+              tmp_path / "c", echo=lambda *_: None)
+    with pytest.raises(DcdcError, match="does not exist"):
+        train(tiny("optim.steps=1", "model.init='nope.pt'"), tmp_path / "d", echo=lambda *_: None)

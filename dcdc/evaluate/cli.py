@@ -67,12 +67,15 @@ def _start_from_dataset(dataset: str, name: str, frame: int, steps):
               help="guard: a faster particle stops the rollout [m/s]")
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True,
               help="guard: the largest fraction of particles allowed inside walls")
+@click.option("--contact/--no-contact", default=True, show_default=True,
+              help="move particles that reach a wall's solid back to its surface after each "
+                   "step (the SPH solver's wall contact); --no-contact: the network alone")
 @click.option("--device", default="cpu", show_default=True)
 @click.option("--max-particles", type=float, default=None, help="raise the scene's particle budget")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="rollout .h5 file")
 @click.option("--overwrite", is_flag=True, help="replace an existing --out file")
 def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, start_frame, steps,
-                     max_speed, max_in_walls, device, max_particles, out, overwrite):
+                     max_speed, max_in_walls, contact, device, max_particles, out, overwrite):
     """Roll out a learned model and write the trajectory (dataset HDF5 layout)."""
     from tqdm import tqdm
 
@@ -101,7 +104,8 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
     else:
         system, t_start, n, attrs, fdt = _start_from_dataset(dataset, trajectory, start_frame, steps)
         check_compatible(model, frame_dt=fdt, what=f"trajectory {trajectory}")
-    sim = NeuralSimulator(model, system, guard=guard, time=t_start, device=device)
+    sim = NeuralSimulator(model, system, guard=guard, time=t_start, device=device,
+                          contact=contact)
     name = f"{attrs['scene']}_{system.dim}d" if dataset is None else trajectory
     click.echo(f"{model.name} ({model_path}) on {name}: {system.n_fluid} fluid + "
                f"{system.n_wall} wall particles, {n} steps of {sim.dt:g} s")
@@ -113,13 +117,15 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
             "solver": f"dcdc.neural ({model.name})",
             "solver_settings": json.dumps(model.config(), sort_keys=True),
             "model": str(model_path), "model_digest": str(ck.get("digest", "")),
+            "wall_contact": int(contact),
             "dcdc_version": version, "git_commit": commit,
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "wall_time_s": time.time() - t0}
     write_rollout(out, name, ro, sim.system, meta)
     walls = int(ro.in_walls.max()) if len(ro.in_walls) else 0
+    moved = f", {int(ro.contacts.sum())} wall contact(s)" if contact else ""
     click.echo(f"wrote {out}: {ro.steps} of {n} steps, {ro.ms_per_step:.1f} ms per step, "
-               f"at most {walls} particle(s) inside walls")
+               f"at most {walls} particle(s) inside walls{moved}")
     if ro.stopped is not None:
         raise ro.stopped
 
@@ -139,7 +145,8 @@ COLUMNS = [  # (heading, key, format) of the stdout table
     ("KE err", "ke_error", "{:.3f}"), ("COM err", "com_height_error", "{:.3f}"),
     ("order", "order_ok", "{}"), ("purity", "purity", "{:.3f}"),
     ("vol err", "volume_error", "{:.4f}"), ("mom m/s", "momentum_error", "{:.3f}"),
-    ("in walls", "in_walls_max", "{}"), ("steps", "steps", "{}"), ("ms/step", "ms_per_step", "{:.1f}"),
+    ("in walls", "in_walls_max", "{}"), ("contacts/step", "contacts_per_step", "{:.1f}"),
+    ("steps", "steps", "{}"), ("ms/step", "ms_per_step", "{:.1f}"),
 ]
 
 
@@ -213,12 +220,14 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
               help="n+1 / n+2 errors from every STRIDE-th ground-truth frame")
 @click.option("--max-speed", type=float, default=50.0, show_default=True, help="guard [m/s]")
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True, help="guard")
+@click.option("--contact/--no-contact", default=True, show_default=True,
+              help="the walls' contact in the rollouts (dcdc simulate --help)")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None)
 @click.option("--plots", "plot_dir", type=click.Path(file_okay=False), default=None,
               help="write error-over-time plots (PNG per trajectory) here")
 @click.option("--overwrite", is_flag=True, help="replace an existing --json file / plots")
-def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls, json_path,
-                     plot_dir, overwrite):
+def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls, contact,
+                     json_path, plot_dir, overwrite):
     """Score models against the SPH ground truth: table on stdout, JSON, plots."""
     from tqdm import tqdm
 
@@ -249,13 +258,14 @@ def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls
             check_compatible(net, dim=t.dim, radius=t.radius, frame_dt=t.frame_dt,
                              what=f"trajectory {t.name} of {data}")
     results = {"data": str(data), "models": dict(zip(labels, map(str, models))),
-               "stride": stride, "steps": steps, "trajectories": {}, "aggregate": {}}
+               "stride": stride, "steps": steps, "contact": contact, "trajectories": {},
+               "aggregate": {}}
     with interrupt.handling(), tqdm(total=len(trajs) * len(nets), unit="rollout") as bar:
         for t in trajs:
             per = {}
             for label, net in zip(labels, nets):
                 bar.set_postfix_str(f"{t.name} / {label}")
-                per[label] = score_trajectory(net, t, stride, steps, guard)
+                per[label] = score_trajectory(net, t, stride, steps, guard, contact=contact)
                 interrupt.check()
                 bar.update(1)
             results["trajectories"][t.name] = per

@@ -17,6 +17,15 @@ rollout with :class:`RolloutStopped` (a one-line report of step, particle and ca
 turns NaN/inf, a particle exceeds the speed bound, leaves the domain, or more than a
 fraction of the particles sits inside walls (:func:`dcdc.metrics.inside_walls`). Wall
 penetrations are counted in ``stats`` either way.
+
+Wall contact (``contact=True``, the default): after each network step, a particle that has
+reached a wall's solid is moved back to its surface and loses its velocity into the wall —
+the SPH solver's own inelastic, frictionless contact (:meth:`dcdc.sph.volume_map.VolumeMap.
+keep_outside`, on the walls' volume map built from the scene's signed distance or the wall
+particles). It is a hard constraint, not learned: the network still does all the fluid
+dynamics, and ``stats["contacts"]`` counts the particles it moved. The networks of
+DeepLagrangianFluids and of the paper have no such step; ``contact=False`` (``dcdc simulate
+--no-contact``) rolls out the network alone, and docs/models.md reports both.
 """
 from __future__ import annotations
 
@@ -86,11 +95,12 @@ class NeuralSimulator:
         time: simulated time of ``system`` (e.g. ``Trajectory.time[frame]``; emitters).
         density: optional per-particle rest densities [N] overriding the phases'.
         device: where the network runs ("cpu", "cuda").
+        contact: apply the walls' contact after each step (module doc).
     """
 
     def __init__(self, model, system: ParticleSystem, dt: float | None = None,
                  guard: Guard | None = None, time: float = 0.0, density=None,
-                 device: str | torch.device = "cpu"):
+                 device: str | torch.device = "cpu", contact: bool = True):
         from ..model.checkpoint import check_compatible
 
         if not isinstance(system, ParticleSystem):
@@ -118,8 +128,11 @@ class NeuralSimulator:
         self._wall_x = torch.as_tensor(system.wall_x)
         self._wall_n = torch.as_tensor(system.wall_n)
         self._gravity = torch.as_tensor(system.gravity)
+        self.contact = WallContact(system) if contact and system.n_wall else None
         self.stats: dict = {}
-        self.totals = {"steps": 0, "step_seconds": 0.0, "max_in_walls": 0, "max_speed": 0.0}
+        self.totals = {"steps": 0, "step_seconds": 0.0, "max_in_walls": 0, "max_speed": 0.0,
+                       "contacts": 0}
+        self.contacts: list[int] = []  # particles the wall contact moved in each step
         self.in_walls: list[int] = []  # particles inside walls after each step
         self.step_ms: list[float] = []  # wall time of each completed step [ms]
 
@@ -144,16 +157,23 @@ class NeuralSimulator:
             with torch.no_grad():
                 x, v = step(self.model, sy.x[idx], sy.v[idx], self.density[idx],
                             self._wall_x, self._wall_n, self.dt, self._gravity)
-            sy.x[idx] = x.detach().cpu().double().numpy()
-            sy.v[idx] = v.detach().cpu().double().numpy()
+            x = x.detach().cpu().double().numpy()
+            v = v.detach().cpu().double().numpy()
+            n_contact = self.contact.apply(x, v) if self.contact is not None else 0
+            sy.x[idx], sy.v[idx] = x, v
+        else:
+            n_contact = 0
         dt_wall = time.perf_counter() - t0
+        self.contacts.append(n_contact)
         self.time += self.dt
         self.steps += 1
         n_in = self._check(idx)
         speed = float(np.sqrt((sy.v[idx] ** 2).sum(1)).max()) if len(idx) else 0.0
         self.stats = {"time": self.time, "steps": 1, "active": int(len(idx)),
-                      "max_speed": speed, "in_walls": n_in, "ms_per_step": 1e3 * dt_wall}
+                      "max_speed": speed, "in_walls": n_in, "contacts": n_contact,
+                      "ms_per_step": 1e3 * dt_wall}
         t = self.totals
+        t["contacts"] += n_contact
         t["steps"] += 1
         t["step_seconds"] += dt_wall
         t["max_in_walls"] = max(t["max_in_walls"], n_in)
@@ -170,13 +190,14 @@ class NeuralSimulator:
         if k < 1 or abs(k * self.dt - frame_dt) > 1e-6 * frame_dt:
             raise DcdcError(f"frame dt {frame_dt:g} s is not a multiple of the model's step "
                             f"{self.dt:g} s")
-        ms, n_in, vmax = 0.0, 0, 0.0
+        ms, n_in, vmax, n_c = 0.0, 0, 0.0, 0
         for _ in range(k):
             st = self.step()
             ms += st["ms_per_step"]
             n_in, vmax = st["in_walls"], max(vmax, st["max_speed"])
+            n_c += st["contacts"]
         self.stats = {**self.stats, "steps": k, "max_speed": vmax, "in_walls": n_in,
-                      "ms_per_step": ms / k}
+                      "contacts": n_c, "ms_per_step": ms / k}
         return self.stats
 
     def run(self, duration: float, frame_dt: float | None = None, callback=None) -> None:
@@ -227,6 +248,39 @@ class NeuralSimulator:
         return n_in
 
 
+class WallContact:
+    """The neural rollout's wall contact (module doc) on the walls' volume map that the SPH
+    solver would build (its default kernel support h).
+
+    A particle is caught when its Ψ exceeds the flat-wall value at ``catch`` particle radii
+    from the wall surface (0.1 r: Ψ ≈ 0.41) and put back where Ψ equals the flat-wall value
+    at ``release`` radii (r/2: Ψ ≈ 0.29; the first fluid row at rest sits at r, Ψ ≈ 0.16).
+    Fluid at rest is never caught — Ψ is at most 0.30 in a 2-D corner and 0.39 in a 3-D one
+    (measured on the built-in scenes) — and a caught particle is left r/2 off the wall, well
+    outside the rollout guard's test (:func:`dcdc.metrics.inside_walls`)."""
+
+    def __init__(self, system: ParticleSystem, catch: float = 0.1, release: float = 0.5):
+        from ..sph.config import SPHConfig
+        from ..sph.kernels import lattice_volume
+        from ..sph import volume_map as vm
+
+        r, d = system.radius, system.dim
+        h = SPHConfig().support * r
+        V0 = lattice_volume(2.0 * r, h, d)
+        self.map = vm.for_system(system, h, V0)
+        z, psi = vm.half_space_profile(h, d)
+        off = vm.wall_offset(r, h, d, V0)
+        # Ψ decreases with the distance z from the map's surface, which lies off behind the walls'
+        self.limit = float(np.interp((catch * r + off), z, psi))
+        self.target = float(np.interp((release * r + off), z, psi))
+
+    def apply(self, x: np.ndarray, v: np.ndarray) -> int:
+        """Move the caught particles of ``x``/``v`` in place; returns how many."""
+        if self.map is None:
+            return 0
+        return self.map.keep_outside(x, v, limit=self.limit, target=self.target)
+
+
 def _check_memory(frames: int, n: int, dim: int) -> None:
     """Refuse, before allocating, frames that would not fit in half this machine's memory."""
     from ..scene.budget import physical_memory
@@ -251,6 +305,7 @@ class Rollout:
     in_walls: np.ndarray
     stopped: RolloutStopped | None
     ms_per_step: float
+    contacts: np.ndarray | None = None  # particles the wall contact moved in each step [T − 1]
 
     @property
     def steps(self) -> int:
@@ -270,7 +325,7 @@ def run(sim: NeuralSimulator, n_steps: int, progress=None, interrupt_check=None)
     ts = np.empty(n_steps + 1)
     xs[0], vs[0], ts[0] = sy.x, sy.v, sim.time
     stopped, k = None, 0
-    first, first_w = len(sim.step_ms), len(sim.in_walls)
+    first, first_w, first_c = len(sim.step_ms), len(sim.in_walls), len(sim.contacts)
     for k in range(1, n_steps + 1):
         try:
             sim.step()
@@ -285,8 +340,9 @@ def run(sim: NeuralSimulator, n_steps: int, progress=None, interrupt_check=None)
     n = k + 1
     ms = sim.step_ms[first:]
     walls = sim.in_walls[first_w:first_w + k]
+    contacts = np.asarray(sim.contacts[first_c:first_c + k], dtype=np.int64)
     return Rollout(xs[:n], vs[:n], ts[:n], np.asarray(walls, dtype=np.int64), stopped,
-                   float(np.median(ms)) if ms else float("nan"))
+                   float(np.median(ms)) if ms else float("nan"), contacts)
 
 
 def write_rollout(path, name: str, ro: Rollout, system: ParticleSystem, attrs: dict):
@@ -302,6 +358,7 @@ def write_rollout(path, name: str, ro: Rollout, system: ParticleSystem, attrs: d
     stats = {"steps": ro.steps, "ms_per_step": ro.ms_per_step,
              "in_walls": ro.in_walls.tolist(),
              "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
+             "contacts": [] if ro.contacts is None else ro.contacts.tolist(),
              "stopped": str(st) if st else "", "stop_cause": st.cause if st else "",
              "stop_step": st.step if st else -1, "stop_particle": st.particle if st else -1}
     meta = {**attrs, "solver_stats": json.dumps(stats), "duration": float(ro.time[-1] - ro.time[0])}

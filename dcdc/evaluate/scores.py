@@ -102,18 +102,21 @@ def physical_state(x, phase, phases, radius, wall_x, domain_min, active):
 
 
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
-                     guard: Guard | None = None, sinkhorn_points: int = 1000) -> dict:
+                     guard: Guard | None = None, sinkhorn_points: int = 1000,
+                     contact: bool = True) -> dict:
     """All scores of ``model`` on ground-truth trajectory ``traj`` (a
-    :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors, a rollout from frame 0 over
-    ``steps`` (default: every frame) with its per-frame errors and the final-state physics.
-    The rollout's per-frame curves are under ``"curves"``."""
+    :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors (the network alone), a rollout
+    from frame 0 over ``steps`` (default: every frame; with the walls' contact unless
+    ``contact`` is False) with its per-frame errors and the final-state physics. The
+    rollout's per-frame curves are under ``"curves"``."""
     from ..model.checkpoint import check_compatible
 
     check_compatible(model, dim=traj.dim, radius=traj.radius, frame_dt=traj.frame_dt,
                      what=f"trajectory {traj.name}")
     n1, n2, starts = one_two_step_errors(model, traj, stride)
     n = traj.n_frames - 1 if steps is None else min(int(steps), traj.n_frames - 1)
-    sim = NeuralSimulator(model, traj.system(0), guard=guard, time=float(traj.time[0]))
+    sim = NeuralSimulator(model, traj.system(0), guard=guard, time=float(traj.time[0]),
+                          contact=contact)
     ro = run(sim, n)
     K = ro.steps
     phases, phase = traj.phases, traj.phase
@@ -167,6 +170,8 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "density_error_true": _finite(true["density_error"]),
         "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
         "in_walls_mean": _finite(ro.in_walls.mean()) if len(ro.in_walls) else 0.0,
+        "contact": bool(contact),
+        "contacts_per_step": _finite(ro.contacts.mean()) if len(ro.contacts) else 0.0,
         "ms_per_step": _finite(ro.ms_per_step),
         "s_per_simulated_s": _finite(ro.ms_per_step / 1e3 / traj.frame_dt),
         "sph_s_per_simulated_s": _sph_cost(traj),
@@ -189,7 +194,7 @@ def _sph_cost(traj):
 
 NUMERIC = ("err_n1_mm", "err_n2_mm", "rollout_mm", "position_mm", "sinkhorn_mm", "ke_error",
            "momentum_error", "com_height_error", "purity", "purity_true", "volume_error",
-           "density_error", "density_error_true", "in_walls_max", "ms_per_step",
+           "density_error", "density_error_true", "in_walls_max", "contacts_per_step", "ms_per_step",
            "s_per_simulated_s", "sph_s_per_simulated_s")
 
 

@@ -131,10 +131,10 @@ def run_case(name: str, mesh, hollow: bool, tmp: Path, volume_map: bool = False)
     if volume_map:
         # what the SPH solver builds next from the same SDF (its default support h = 4r)
         from ..sph.kernels import lattice_volume
-        from ..sph.solver import _volume_map
+        from ..sph.volume_map import for_system
         h = 4 * RADIUS
         t0, c0 = time.perf_counter(), time.process_time()
-        _volume_map(system, h, lattice_volume(2 * RADIUS, h, 3), True)
+        for_system(system, h, lattice_volume(2 * RADIUS, h, 3), True)
         rec.update(volume_map_seconds=round(time.perf_counter() - t0, 3),
                    volume_map_cpu_seconds=round(time.process_time() - c0, 3))
     return rec

@@ -56,7 +56,7 @@ class Simulator:
         self.V0 = lattice_volume(2.0 * r, self.h, system.dim)
         self.Vb = wall_volumes(system.wall_x, self.h, self.V0)
         self._walls = CellGrid(system.wall_x, self.h)  # static: binned once
-        self.volume_map = (_volume_map(system, self.h, self.V0, cfg.wall_buoyancy)
+        self.volume_map = (volume_map.for_system(system, self.h, self.V0, cfg.wall_buoyancy)
                            if cfg.boundary == "map" else None)
         self._wall_edges = self.volume_map is None or cfg.no_slip
         self._rho0 = system.rest_density
@@ -242,22 +242,6 @@ def _check_system(sy: ParticleSystem) -> None:
         raise DcdcError("birth times contain NaN/inf")
     sy.check_inside_domain()
     check_fluid_outside_walls(sy.x, sy.wall_x, sy.wall_n, sy.spacing)
-
-
-def _volume_map(sy: ParticleSystem, h: float, V0: float, buoyancy: bool):
-    """The walls' volume map: from the scene's signed distance function when it has one,
-    else from the wall particles' lattice cells; None without walls. Its surface lies
-    :func:`~dcdc.sph.volume_map.wall_offset` behind the walls' so that fluid at rest on the
-    lattice next to a flat wall has ψ = 1."""
-    if sy.n_wall == 0:
-        return None
-    lo, hi = sy.domain
-    off = volume_map.wall_offset(sy.radius, h, sy.dim, V0)
-    g = float(np.linalg.norm(sy.gravity))
-    down = sy.gravity / g if (g > 0 and buoyancy) else None
-    if sy.wall_sdf is not None:
-        return volume_map.from_sdf(sy.wall_sdf, sy.wall_x, lo, hi, sy.radius, h, off, down)
-    return volume_map.from_particles(sy.wall_x, lo, hi, sy.radius, h, off, down)
 
 
 def _auto_sound_speed(sy: ParticleSystem) -> float:

@@ -172,16 +172,18 @@ class VolumeMap:
         return self._interp(self.psi, x)
 
     def keep_outside(self, x: np.ndarray, v: np.ndarray, limit: float = 0.5,
-                     iterations: int = 3) -> int:
-        """Wall contact: move every point with Ψ(x) > ``limit`` back to Ψ = ``limit`` along
-        ∇Ψ (Newton steps on Ψ) and remove its velocity into the wall (an inelastic, frictionless
-        collision); ``x`` and ``v`` are changed in place; returns how many points moved.
+                     iterations: int = 3, target: float | None = None) -> int:
+        """Wall contact: move every point with Ψ(x) > ``limit`` back to Ψ = ``target``
+        (default: ``limit``) along ∇Ψ (Newton steps on Ψ) and remove its velocity into the
+        wall (an inelastic, frictionless collision); ``x`` and ``v`` are changed in place;
+        returns how many points moved.
 
         The pressure solve pushes only particles under pressure (p_i ∇Ψ); spray (p = 0) would
         fly into the solid, where Ψ -> 1 and ∇Ψ -> 0 leave nothing to push it out. Ψ = 1/2 is
         the map's surface at a flat wall; fluid at rest never comes near it (Ψ ≈ 0.16 at the
         first row, ≈ 0.4 in a 3-D corner), so only particles that reach the solid feel this."""
-        psi, grad = self.sample(x)
+        target = limit if target is None else target
+        psi, _ = self.sample(x)
         hit = np.flatnonzero(psi > limit)
         if not len(hit):
             return 0
@@ -189,7 +191,10 @@ class VolumeMap:
         for _ in range(iterations):
             ph, gh = self.sample(xh)
             g2 = (gh ** 2).sum(1)
-            step = np.where((ph > limit) & (g2 > 1e-12), (ph - limit) / np.maximum(g2, 1e-300), 0.0)
+            step = np.where((ph > target) & (g2 > 1e-12), (ph - target) / np.maximum(g2, 1e-300), 0.0)
+            # deep in the solid ∇Ψ -> 0 and the Newton step would blow up: move at most h/4
+            # (a particle radius at the default support) per iteration
+            step = np.minimum(step, 0.25 * self.h / np.sqrt(np.maximum(g2, 1e-300)))
             xh -= step[:, None] * gh
         x[hit] = xh
         _, gh = self.sample(xh)
@@ -362,3 +367,20 @@ def from_particles(wall_x: np.ndarray, lo, hi, radius: float, h: float,
     chi = np.zeros(int(np.prod(shape)))
     chi[close] = np.minimum(np.bincount(recv, weights=frac, minlength=len(nodes)), 1.0)
     return VolumeMap(chi.reshape(shape), g_lo, cell, h, down)
+
+
+def for_system(sy, h: float, V0: float, buoyancy: bool = False):
+    """The walls' volume map of a :class:`~dcdc.particles.ParticleSystem`: from the scene's
+    signed distance function when it has one (``sy.wall_sdf``), else from the wall particles'
+    lattice cells; None without walls. Its surface lies :func:`wall_offset` behind the walls'
+    so that fluid at rest on the lattice next to a flat wall has ψ = 1; ``buoyancy`` adds the
+    hydrostatic moment along gravity (:meth:`VolumeMap.tangential_moment`)."""
+    if sy.n_wall == 0:
+        return None
+    lo, hi = sy.domain
+    off = wall_offset(sy.radius, h, sy.dim, V0)
+    g = float(np.linalg.norm(sy.gravity))
+    down = sy.gravity / g if (g > 0 and buoyancy) else None
+    if sy.wall_sdf is not None:
+        return from_sdf(sy.wall_sdf, sy.wall_x, lo, hi, sy.radius, h, off, down)
+    return from_particles(sy.wall_x, lo, hi, sy.radius, h, off, down)

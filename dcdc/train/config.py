@@ -41,6 +41,7 @@ class ModelConfig(NetConfig):
     name: str = "dcdc"
     particle_radius: float | None = None
     frame_dt: float | None = None
+    init: str = ""  # start from these weights (a checkpoint or shipped model name): fine-tuning
 
     def validate(self):
         check_types(self, "model.")

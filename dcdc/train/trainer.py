@@ -246,6 +246,8 @@ class Trainer:
         self._barrier()
         if resume:
             self._resume()
+        if self.step == 0 and cfg.model.init:
+            self._initialise(cfg.model.init)
         self.model = self.net
         if self.dist.world > 1:
             from torch.nn.parallel import DistributedDataParallel as DDP
@@ -287,6 +289,20 @@ class Trainer:
             return
         if self.dist.main:
             self.echo(f"no checkpoint in {self.run_dir / CKPT_DIR}: starting at step 0")
+
+    def _initialise(self, init: str) -> None:
+        """Fine-tuning (``model.init``): the weights of a checkpoint of the same network,
+        with a fresh optimizer and this run's schedule."""
+        ck = read_checkpoint(init)
+        mine, theirs = self.net.config(), ck["config"]
+        diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+        if diff:
+            k = diff[0]
+            raise DcdcError(f"model.init: {init} holds another network ({k} = "
+                            f"{theirs.get(k)!r}, this run's {mine.get(k)!r})")
+        self.net.load_state_dict(ck["state_dict"])
+        if self.dist.main:
+            self.echo(f"starting from the weights of {init}")
 
     def _data_summary(self) -> dict:
         r = self.sampler.ratios
