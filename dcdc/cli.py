@@ -35,6 +35,7 @@ BENCHMARKS = {
     "train": "dcdc.train.benchmark:train_benchmark_command",
     "render": "dcdc.render.benchmark:benchmark_command",
     "geometry": "dcdc.geometry.benchmark:benchmark_command",
+    "table1": "dcdc.evaluate.table1:table1_command",
 }
 
 

@@ -159,7 +159,8 @@ class NeuralSimulator:
                             self._wall_x, self._wall_n, self.dt, self._gravity)
             x = x.detach().cpu().double().numpy()
             v = v.detach().cpu().double().numpy()
-            n_contact = self.contact.apply(x, v) if self.contact is not None else 0
+            n_contact = (self.contact.apply(x, v, sy.x[idx]) if self.contact is not None
+                         else 0)
             sy.x[idx], sy.v[idx] = x, v
         else:
             n_contact = 0
@@ -268,17 +269,40 @@ class WallContact:
         h = SPHConfig().support * r
         V0 = lattice_volume(2.0 * r, h, d)
         self.map = vm.for_system(system, h, V0)
+        self.radius = r
         z, psi = vm.half_space_profile(h, d)
         off = vm.wall_offset(r, h, d, V0)
         # Ψ decreases with the distance z from the map's surface, which lies off behind the walls'
         self.limit = float(np.interp((catch * r + off), z, psi))
         self.target = float(np.interp((release * r + off), z, psi))
 
-    def apply(self, x: np.ndarray, v: np.ndarray) -> int:
-        """Move the caught particles of ``x``/``v`` in place; returns how many."""
+    def apply(self, x: np.ndarray, v: np.ndarray, x_old: np.ndarray | None = None) -> int:
+        """Move the caught particles of ``x``/``v`` in place; returns how many. With the
+        positions before the step, ``x_old``, a particle that moved more than r/2 is also
+        caught where its straight path first enters a wall (sampled every r/2), so a fast one
+        cannot jump through a thin wall (a lid one particle thick) within a step."""
         if self.map is None:
             return 0
+        if x_old is not None:
+            self._sweep(x, x_old)
         return self.map.keep_outside(x, v, limit=self.limit, target=self.target)
+
+    def _sweep(self, x: np.ndarray, x_old: np.ndarray) -> None:
+        step = 0.5 * self.radius
+        d = x - x_old
+        length = np.sqrt((d ** 2).sum(1))
+        fast = np.flatnonzero(length > step)
+        if not len(fast):
+            return
+        n = int(np.ceil(length[fast].max() / step))
+        t = np.arange(1, n + 1) / n  # points along each path, the end included
+        pts = x_old[fast, None, :] + t[None, :, None] * d[fast, None, :]
+        psi, _ = self.map.sample(pts.reshape(-1, x.shape[1]))
+        inside = psi.reshape(len(fast), n) > self.limit
+        hit = inside.any(1)
+        first = inside.argmax(1)
+        # the first point inside: keep_outside then moves it back to the release level
+        x[fast[hit]] = pts[np.flatnonzero(hit), first[hit]]
 
 
 def _check_memory(frames: int, n: int, dim: int) -> None:
