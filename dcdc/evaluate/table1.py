@@ -118,6 +118,8 @@ def table1_command(model2d, model3d, scenes, seconds, seconds3d, device, json_pa
 
     if not (seconds > 0 and seconds3d > 0):
         raise DcdcError("--seconds and --seconds3d must be > 0")
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise DcdcError(f"--device {device}: no CUDA device here (torch {torch.__version__})")
     if json_path:
         check_file(json_path, overwrite=True)
     jobs = [(s, 2) for s in (scenes or SHOWCASES)]

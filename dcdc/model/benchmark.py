@@ -249,29 +249,37 @@ def tank(n: int, dim: int = 3, seed: int = 0):
 
 def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antisym"),
               repeat: int = 5, bf16: bool = False, echo=None, train: bool = False,
-              net_options: dict | None = None) -> dict:
+              net_options: dict | None = None, device: str = "cpu") -> dict:
     """Time neural steps; with ``train`` a step is forward + backward of a position loss.
-    ``net_options``: network options (e.g. ``kernel_size``, ``channels``) for every network."""
+    ``net_options``: network options (e.g. ``kernel_size``, ``channels``) for every network.
+    On ``device = "cuda"`` the network runs on the GPU (the neighbour search and the
+    geometry stay on the CPU) and every timed step ends with a device synchronisation."""
     from .integrator import step
     from .networks import build_network
 
+    dev = torch.device(device)
+    sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
     rows = []
     for name in networks:
         torch.manual_seed(0)
-        net = build_network(name, 3, **(net_options or {})).eval()
+        net = build_network(name, 3, **(net_options or {})).eval().to(dev)
         if bf16:
             net.set_backend("auto", torch.bfloat16)
         for n in sizes:
             x, v, rho, wx, wn = tank(n)
-            xt, vt = torch.tensor(x, dtype=torch.float32), torch.tensor(v, dtype=torch.float32)
+            xt = torch.tensor(x, dtype=torch.float32, device=dev)
+            vt = torch.tensor(v, dtype=torch.float32, device=dev)
             def one_step():
                 if not train:
                     with torch.no_grad():
-                        return step(net, xt, vt, rho, wx, wn)
+                        out = step(net, xt, vt, rho, wx, wn)
+                    sync()
+                    return out
                 net.zero_grad(set_to_none=True)
                 x1, _ = step(net, xt, vt, rho, wx, wn)
                 with net._timed("backward"):
                     (x1 - xt).square().sum().backward()
+                    sync()
 
             one_step()  # warm-up
             net.profile, net.timings = True, {}
@@ -297,10 +305,11 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
                    "backward_ms": parts.get("backward", 0) * 1e3, "train": train,
                    "other_ms": (mean_total - sum(parts.values())) * 1e3,
                    "peak_mib": mem.peak_mib, "rss_mib": mem.rss_mib, "bf16": bf16}
+            row["device"] = str(dev)
             rows.append(row)
             if echo:
                 echo(row)
-    return {"benchmark": "model", "machine": machine_info(), "rows": rows,
+    return {"benchmark": "model", "machine": machine_info(), "device": str(dev), "rows": rows,
             "scaling": scaling_exponents(rows),
             "note": "no gradients, float32 (+bf16 GEMMs if set); ms_per_step = best of repeats, "
                     "breakdown = means over repeats (other = mean total - parts); scaling: "
@@ -339,11 +348,16 @@ def _fmt_row(r):
               "(default: the architecture's, 4)")
 @click.option("--channels", default=None, help="network option channels, comma-separated "
               "hidden widths (default: 32,64,64)")
+@click.option("--device", default="cpu", show_default=True, help="where the network runs (cuda)")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write results here (e.g. benchmarks/model.json)")
-def model_command(particles, networks, repeat, bf16, train, kernel_size, channels, json_path):
+def model_command(particles, networks, repeat, bf16, train, kernel_size, channels, device,
+                  json_path):
     """ms per neural step (search included) per network and particle count."""
     from ..errors import DcdcError
+
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise DcdcError(f"--device {device}: no CUDA device here (torch {torch.__version__})")
 
     try:
         sizes = [int(s) for s in particles.split(",") if s.strip()]
@@ -372,7 +386,7 @@ def model_command(particles, networks, repeat, bf16, train, kernel_size, channel
                f"{'convs':>8s} {'other':>7s} {'+MiB':>7s} {'RSS MiB':>7s} {'cpu ms':>8s}"
                + (f" {'backward':>9s}" if train else ""))
     res = run_model(sizes, nets, repeat, bf16, echo=lambda r: click.echo(_fmt_row(r)),
-                    train=train, net_options=opts)
+                    train=train, net_options=opts, device=device)
     for name, b in res["scaling"].items():
         click.echo(f"scaling {name}: median ms ∝ N^{b:.2f}")
     _write_json(json_path, res)

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# GPU measurements in one command, from a fresh checkout on a machine with a CUDA device
+# (issue 10 item 5; budget < 5 min):
+#   bash benchmarks/gpu.sh
+# Writes benchmarks/model_gpu.json (ms per 3-D neural step at 1 k - 100 k particles, the
+# network on the GPU, search + geometry on the CPU) and benchmarks/table1_gpu.json (the
+# paper's Table 1 with the network on the GPU; the SPH solver runs on the CPU cores).
+# CI never has a GPU and nothing depends on this script.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+python3 -m venv .venv-gpu
+. .venv-gpu/bin/activate
+# PyPI's Linux wheel of torch==2.13.0 (the pinned version) carries CUDA; the CPU machines
+# install the CPU build of the same version from their package index instead
+pip install -q -e .
+python - <<'PY'
+import sys, torch
+if not torch.cuda.is_available():
+    sys.exit(f"error: torch {torch.__version__} sees no CUDA device")
+print(torch.cuda.get_device_name(0), torch.version.cuda)
+PY
+dcdc benchmark model --device cuda --particles 1000,10000,50000,100000 --repeat 10 \
+    --json benchmarks/model_gpu.json
+dcdc benchmark table1 --device cuda --json benchmarks/table1_gpu.json \
+    --note "network on $(python -c 'import torch; print(torch.cuda.get_device_name(0))'), SPH on $(nproc) CPU cores"
