@@ -7,7 +7,10 @@ A scene (``dcdc.scene``) is realised as a :class:`ParticleSystem`; the SPH solve
 Fluid particles carry a phase id; each :class:`Phase` has its own rest density and
 viscosity. Walls are static boundary particles with outward normals (pointing into the
 fluid). Emitters are realised up front as extra fluid particles with a ``birth`` time:
-a particle with ``birth > t`` is not yet part of the simulation.
+a particle with ``birth > t`` is not yet part of the simulation. A particle that the solver
+removes (it left the domain with ``on_escape = "remove"``) gets a finite ``death`` time
+and is no longer part of it from then on: a particle is *active* at time t when
+``birth <= t < death`` (:func:`active_mask`).
 """
 from __future__ import annotations
 
@@ -20,6 +23,17 @@ from .errors import DcdcError, require
 DEFAULT_RADIUS = 0.025  # particle radius r [m]; spacing 2r (DESIGN §2)
 DEFAULT_GRAVITY = (0.0, -9.81, 0.0)
 RHO_REF = 1000.0  # reference density for the density embedding (paper eq. 4)
+TIME_EPS = 1e-9  # [s] slack of the comparisons with birth and death times
+
+
+def active_mask(birth, death, t: float) -> np.ndarray:
+    """Which particles take part in the simulation at time ``t``: born (``birth <= t``) and
+    not yet removed (``t < death``), each within :data:`TIME_EPS`; ``death`` None = none
+    removed. A particle removed at time t_d is inactive in the frame at t_d."""
+    mask = np.asarray(birth) <= t + TIME_EPS
+    if death is not None:
+        mask &= np.asarray(death) > t + TIME_EPS
+    return mask
 
 
 @dataclass(frozen=True)
@@ -50,9 +64,13 @@ class ParticleSystem:
         phases: the phases, indexed by ``phase``.
         wall_x, wall_n: wall particle positions and unit normals, float64 [M, dim].
         gravity: gravity vector [dim].
-        domain: (lo, hi) corners of the simulation domain; a particle leaving it is an error.
+        domain: (lo, hi) corners of the simulation domain; a particle leaving it is an error,
+            or is removed (the solver's ``on_escape``).
         birth: emission time of each fluid particle [N] (0 for particles present at t = 0).
         name: scene name, for metadata.
+        death: removal time of each fluid particle [N] (inf = never removed); the SPH solver
+            sets it when a particle leaves the domain with ``on_escape = "remove"``. The
+            particle keeps its last position and velocity afterwards.
     """
 
     dim: int
@@ -71,6 +89,7 @@ class ParticleSystem:
     # signed distance of the walls (< 0 inside the solid), x [M, d] -> [M], when the scene
     # defines one: the SPH solver's wall volume map uses the exact solid (dcdc.sph.volume_map)
     wall_sdf: object = field(default=None, repr=False, compare=False)
+    death: np.ndarray | None = None
 
     def __post_init__(self):
         d = self.dim
@@ -87,6 +106,9 @@ class ParticleSystem:
         if self.birth is None:
             self.birth = np.zeros(n)
         self.birth = np.ascontiguousarray(self.birth, dtype=np.float64).reshape(n)
+        if self.death is None:
+            self.death = np.full(n, np.inf)
+        self.death = np.ascontiguousarray(self.death, dtype=np.float64).reshape(n)
         require(len(self.wall_n) == len(self.wall_x), "wall normals and positions differ in count")
         require(self.radius > 0, f"particle radius must be > 0 (got {self.radius})")
         if n:
@@ -117,6 +139,15 @@ class ParticleSystem:
         """Per-particle kinematic viscosity [N]."""
         return np.array([p.viscosity for p in self.phases], dtype=np.float64)[self.phase]
 
+    def active(self, t: float) -> np.ndarray:
+        """Boolean mask [N] of the particles active at time ``t`` (:func:`active_mask`)."""
+        return active_mask(self.birth, self.death, t)
+
+    @property
+    def n_removed(self) -> int:
+        """Number of particles removed so far (finite ``death``)."""
+        return int(np.isfinite(self.death).sum())
+
     def counts_per_phase(self) -> dict[str, int]:
         counts = np.bincount(self.phase, minlength=len(self.phases))
         return {p.name: int(c) for p, c in zip(self.phases, counts)}
@@ -129,9 +160,10 @@ class ParticleSystem:
             raise DcdcError(f"state turned NaN/inf{when} for {bad} particle(s)")
 
     def check_inside_domain(self) -> None:
-        """Raise a one-line error if a fluid particle lies outside the domain."""
+        """Raise a one-line error if a fluid particle lies outside the domain (particles
+        removed at t <= 0 excepted: they are never simulated)."""
         lo, hi = self.domain
-        out = ~((self.x >= lo) & (self.x <= hi)).all(1)
+        out = ~((self.x >= lo) & (self.x <= hi)).all(1) & (self.death > 0)
         if out.any():
             i = int(np.flatnonzero(out)[0])
             raise DcdcError(f"{int(out.sum())} fluid particle(s) outside the domain "
@@ -141,4 +173,5 @@ class ParticleSystem:
         return ParticleSystem(self.dim, self.radius, self.x.copy(), self.v.copy(), self.phase.copy(),
                               list(self.phases), self.wall_x.copy(), self.wall_n.copy(),
                               self.gravity.copy(), (self.domain[0].copy(), self.domain[1].copy()),
-                              self.birth.copy(), self.name, dict(self.meta), self.wall_sdf)
+                              self.birth.copy(), self.name, dict(self.meta), self.wall_sdf,
+                              self.death.copy())

@@ -16,6 +16,7 @@ Each trajectory group ``/NAME`` holds:
 | ``phase`` | [N] | int32 | phase index of each fluid particle |
 | ``density`` | [N] | float32 | rest density ρ₀ of each particle [kg/m³] |
 | ``birth`` | [N] | float32 | emission time (0 = present at t = 0) [s] |
+| ``death`` | [N] | float64 | removal time (inf = never removed) [s]; absent in older files |
 | ``wall_position``, ``wall_normal`` | [M, d] | float32 | static wall particles, normals into the fluid |
 
 and attributes (metadata): ``dim``, ``radius``, ``frame_dt``, ``n_frames``, ``gravity``,
@@ -23,7 +24,12 @@ and attributes (metadata): ``dim``, ``radius``, ``frame_dt``, ``n_frames``, ``gr
 ``units`` (JSON), ``solver``, ``solver_settings`` (JSON), ``scene``, ``scene_toml`` (the full
 scene file), ``scene_dim``, ``resolution``, ``seed``, ``split``, ``dcdc_version``,
 ``git_commit``, ``created``, ``wall_time_s``, ``solver_stats`` (JSON), ``max_density_ratio``,
-``attrs_sha256`` and ``complete`` = 1, written last.
+``removed`` (particles with a finite ``death``), ``attrs_sha256`` and ``complete`` = 1,
+written last.
+
+A particle takes part in frame k when ``birth <= time[k] < death``
+(:meth:`Trajectory.active`); outside that interval its stored position is its nozzle
+(before birth) or where it left the domain (after removal, frozen).
 
 Integrity (format version 2): every non-empty array is stored with HDF5's Fletcher-32
 checksum filter, which HDF5 verifies on every read (a flipped bit makes the read fail
@@ -42,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DcdcError
-from ..particles import ParticleSystem, Phase
+from ..particles import ParticleSystem, Phase, active_mask
 from ..outputs import TMP_MARK, atomic_file
 
 FORMAT = "dcdc-dataset"
@@ -148,11 +154,15 @@ def write_group(g, frames_x, frames_v, times, system: ParticleSystem, attrs: dic
     put("phase", system.phase.astype(np.int32))
     put("density", system.rest_density.astype(np.float32))
     put("birth", system.birth.astype(np.float32))
+    # float64: a removal at the last substep of a frame lies on the frame's time exactly,
+    # and float32 would move it past that time (the particle would read as active there)
+    put("death", system.death.astype(np.float64))
     put("wall_position", system.wall_x.astype(np.float32))
     put("wall_normal", system.wall_n.astype(np.float32))
     meta = {
         "max_density_ratio": max_density_ratio(system.rest_density, system.birth,
                                                float(times[-1]) if len(times) else 0.0),
+        "removed": system.n_removed,
         "dim": system.dim, "radius": system.radius, "n_frames": T - 1,
         "gravity": system.gravity, "domain_min": system.domain[0], "domain_max": system.domain[1],
         "phase_names": json.dumps([p.name for p in system.phases]),
@@ -182,6 +192,13 @@ def is_complete(path) -> bool:
         return False
 
 
+def removed_count(path, name: str) -> int:
+    """The ``removed`` attribute of trajectory ``name`` in the file ``path`` (0 when absent:
+    written before removal existed), without reading its arrays."""
+    with _reading(path, name) as f:
+        return int(_attr(f[name].attrs.get("removed", 0)))
+
+
 # ------------------------------------------------------------------ reading
 @dataclass
 class _Ref:
@@ -204,6 +221,7 @@ class Trajectory:
                 raise DcdcError(f"{ref.file}: trajectory {ref.group} lacks {', '.join(missing)}")
             self.attrs = {k: _attr(v) for k, v in g.attrs.items()}
             self.shape = g["position"].shape
+            self._has_death = "death" in g
             stored = self.attrs.get("attrs_sha256")
             if stored is not None and stored != attrs_digest(g.attrs):
                 raise DcdcError(f"{ref.file}: corrupt trajectory {ref.group}: its metadata does not "
@@ -272,6 +290,24 @@ class Trajectory:
     phase = property(lambda self: self._get("phase"))
     density = property(lambda self: self._get("density"))
     birth = property(lambda self: self._get("birth"))
+
+    @property
+    def death(self) -> np.ndarray:
+        """Removal time of each particle [N] (inf = never removed; all inf in files written
+        before removal existed)."""
+        return self._get("death") if self._has_death else np.full(self.n_particles, np.inf)
+
+    @property
+    def removed(self) -> int:
+        """Number of particles removed during the run (left the domain)."""
+        if "removed" in self.attrs:
+            return int(self.attrs["removed"])
+        return int(np.isfinite(self.death).sum())
+
+    def active(self, frame: int) -> np.ndarray:
+        """Boolean mask [N] of the particles taking part in ``frame``: born and not yet
+        removed, ``birth <= time[frame] < death`` (:func:`dcdc.particles.active_mask`)."""
+        return active_mask(self.birth, self.death, float(self.time[frame]))
     wall_x = property(lambda self: self._get("wall_position"))
     wall_n = property(lambda self: self._get("wall_normal"))
 
@@ -284,7 +320,7 @@ class Trajectory:
         sl = slice(start, start + length)
         return {"position": self._get("position", sl), "velocity": self._get("velocity", sl),
                 "time": self.time[sl], "phase": self.phase, "density": self.density,
-                "birth": self.birth, "wall_position": self.wall_x, "wall_normal": self.wall_n,
+                "birth": self.birth, "death": self.death, "wall_position": self.wall_x, "wall_normal": self.wall_n,
                 "gravity": self.gravity, "radius": self.radius, "frame_dt": self.frame_dt}
 
     def system(self, frame: int = 0) -> ParticleSystem:
@@ -295,7 +331,7 @@ class Trajectory:
                               self.wall_x, self.wall_n, self.gravity,
                               (self.attrs["domain_min"], self.attrs["domain_max"]),
                               self.birth.astype(np.float64), self.attrs.get("scene", self.name),
-                              {"trajectory": self.name, "frame": frame})
+                              {"trajectory": self.name, "frame": frame}, death=self.death)
 
     def __repr__(self):
         return (f"Trajectory({self.name!r}, {self.dim}-D, {self.n_frames} frames, "
@@ -413,6 +449,7 @@ class Dataset:
             "density_range": [float(min((t.density.min() for t in trajs if t.n_particles), default=0)),
                               float(max((t.density.max() for t in trajs if t.n_particles), default=0))],
             "wall_time_s": float(sum(float(t.attrs.get("wall_time_s", 0) or 0) for t in trajs)),
+            "removed": int(sum(t.removed for t in trajs)),
             "bytes": int(sum(p.stat().st_size for p in {r.file for r in self._refs})),
         }
 

@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import DcdcError
 from ..outputs import check_dir
 from . import interrupt
-from .dataset import is_complete
+from .dataset import is_complete, removed_count
 from .jobs import (Job, _check_same_job, _write_json, check_duration, code_version, parse_shard,
                    random_jobs, run_job, scene_jobs)
 
@@ -45,7 +45,8 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
              simulator: str = "sph", retry_failed: bool = False, progress: bool = True,
              command: str = "", frames_of=None) -> dict:
     """Generate every job of this shard not yet finished in ``out_dir``. Returns a summary
-    (counts of done / skipped / failed, timing). Jobs that diverge are recorded, the rest go on."""
+    (counts of done / skipped / failed, particles removed at the domain's edge, timing). Jobs
+    that diverge are recorded, the rest go on."""
     out_dir = check_dir(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [j.name for j in jobs]
@@ -84,6 +85,8 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
     workers = max(1, min(workers, len(todo))) if todo else 1
 
     def finished(rec):
+        if rec["status"] == "ok":  # particles that left the domain (solver on_escape = "remove")
+            rec["removed"] = removed_count(out_dir / f"{rec['name']}.h5", rec["name"])
         results.append(rec)
         bar.set_postfix_str(f"done {len(results)}/{len(todo)}")
     try:
@@ -108,6 +111,7 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
         "simulator": simulator, "jobs_in_shard": len(mine), "skipped": len(skipped),
         "done": sum(r["status"] == "ok" for r in results),
         "failed": [r for r in results if r["status"] != "ok"],
+        "removed": sum(r.get("removed", 0) for r in results),
         "wall_time_s": round(time.time() - t0, 2), "results": results,
     }
     _write_index(out_dir, summary)
@@ -124,8 +128,8 @@ def _write_index(out_dir: Path, summary: dict) -> None:
     runs = idx.get("runs", [])
     runs.append({k: v for k, v in summary.items() if k != "results"}
                 | {"finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                   "per_trajectory": [{k: r.get(k) for k in ("name", "status", "particles", "frames",
-                                                             "wall_time_s", "s_per_frame")}
+                   "per_trajectory": [{k: r.get(k) for k in ("name", "status", "particles", "removed",
+                                                             "frames", "wall_time_s", "s_per_frame")}
                                       for r in summary["results"]]})
     done = sorted(p.name[:-3] for p in out_dir.glob("*.h5") if not p.name.startswith("."))
     _write_json(idx_path, {"format": "dcdc-dataset", "trajectories": done, "runs": runs[-50:]})
@@ -199,8 +203,11 @@ def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, mi
     ok = [r for r in summary["results"] if r["status"] == "ok"]
     rate = (f", {np.mean([r['wall_time_s'] for r in ok]):.1f} s per trajectory "
             f"({np.mean([r['s_per_frame'] for r in ok]):.3f} s/frame)") if ok else ""
+    removed = (f", {summary['removed']} particle(s) removed after leaving the domain"
+               if summary["removed"] else "")
     click.echo(f"{summary['done']} written, {summary['skipped']} already done, "
-               f"{len(summary['failed'])} failed, in {summary['wall_time_s']:.1f} s{rate} -> {out}")
+               f"{len(summary['failed'])} failed{removed}, in {summary['wall_time_s']:.1f} s{rate} "
+               f"-> {out}")
     for r in summary["failed"]:
         click.echo(f"  failed {r['name']}: {r.get('error')}", err=True)
     if summary["failed"]:

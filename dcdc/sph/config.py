@@ -9,6 +9,7 @@ from ..errors import DcdcError
 
 SOLVERS = ("dfsph", "wcsph")
 BOUNDARIES = ("map", "particles")
+ON_ESCAPE = ("error", "remove")
 
 
 @dataclass
@@ -57,6 +58,10 @@ class SPHConfig:
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
+    on_escape: what a fluid particle leaving ``system.domain`` does: "error" (default: the
+        run stops with SimulationDiverged) or "remove" (it is deactivated at the end of
+        that substep: no longer stepped, no longer a neighbour, its ``system.death`` set to
+        the time; for open scenes whose fluid falls away, docs/sph.md).
     """
 
     solver: str = "dfsph"
@@ -82,16 +87,17 @@ class SPHConfig:
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
+    on_escape: str = "error"
 
     def __post_init__(self):
         self.validate()
 
     def validate(self) -> "SPHConfig":
-        if self.solver not in SOLVERS:
-            raise DcdcError(f"sph.solver must be one of {', '.join(SOLVERS)} (got {self.solver!r})")
-        if self.boundary not in BOUNDARIES:
-            raise DcdcError(f"sph.boundary must be one of {', '.join(BOUNDARIES)} "
-                            f"(got {self.boundary!r})")
+        for name, choices in (("solver", SOLVERS), ("boundary", BOUNDARIES),
+                              ("on_escape", ON_ESCAPE)):
+            if getattr(self, name) not in choices:
+                raise DcdcError(f"sph.{name} must be one of {', '.join(choices)} "
+                                f"(got {getattr(self, name)!r})")
         positive = ("support", "cfl", "speed_floor", "dt_max", "dt_min", "density_tolerance",
                     "divergence_tolerance", "omega", "stiffness_exponent", "max_speed")
         for name in positive:

@@ -16,7 +16,10 @@ physical pressure is the impulse-weighted mean of their sum, which is what
 sampled once a frame, which swings between 0.2 and 1.1 from substep to substep).
 
 Particles with ``system.birth > sim.time`` are inactive (neither simulated nor neighbours)
-until their birth time; then they start at their stored position and velocity.
+until their birth time; then they start at their stored position and velocity. With
+``on_escape = "remove"`` a particle that leaves ``system.domain`` is removed at the end of
+that substep: ``system.death`` gets the time, and from then on it is inactive like an
+unborn one, frozen at its last position and velocity (active: ``birth <= t < death``).
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ import numpy as np
 
 from ..errors import DcdcError, SimulationDiverged
 from ..neighbors import CellGrid
-from ..particles import ParticleSystem
+from ..particles import TIME_EPS, ParticleSystem
 from . import dfsph, volume_map, wcsph
 from .boundary import check_fluid_outside_walls, wall_volumes
 from .config import SPHConfig
@@ -71,7 +74,7 @@ class Simulator:
                                          system.dim)
         self.stats: dict = {}
         self.totals = {"frames": 0, "substeps": 0, "iterations": 0, "divergence_iterations": 0,
-                       "max_density_error": 0.0}
+                       "max_density_error": 0.0, "removed": 0}
 
     # ------------------------------------------------------------------ stepping
     def advance(self, frame_dt: float) -> dict:
@@ -84,6 +87,7 @@ class Simulator:
         its, its_div, dts = [], [], []
         max_err = 0.0
         n_active = 0
+        n_removed = 0
         p_sum = np.zeros(self.system.n_fluid)
         while t_end - self.time > 1e-12 * max(1.0, t_end):
             active = self._active()
@@ -111,11 +115,12 @@ class Simulator:
             its_div.append(info["divergence_iterations"])
             dts.append(dt)
             max_err = max(max_err, float(np.maximum(nbh.psi - 1.0, 0.0).mean()))
-            self._check(s, active)
+            n_removed += self._check(s, active)
         if abs(self.time - t_end) < 1e-9:
             self.time = t_end
         self._p_frame = p_sum / frame_dt
-        speed = np.sqrt((self.system.v ** 2).sum(1)).max() if self.system.n_fluid else 0.0
+        v = self.system.v[self.system.death > self.time + TIME_EPS]  # the removed are gone
+        speed = np.sqrt((v ** 2).sum(1)).max() if len(v) else 0.0
         self.stats = {
             "time": self.time,
             "substeps": n_sub,
@@ -126,6 +131,7 @@ class Simulator:
             "max_density_error": max_err,
             "max_speed": float(speed),
             "active": n_active,
+            "removed": n_removed,
         }
         t = self.totals
         t["frames"] += 1
@@ -133,6 +139,7 @@ class Simulator:
         t["iterations"] += int(np.sum(its))
         t["divergence_iterations"] += int(np.sum(its_div))
         t["max_density_error"] = max(t["max_density_error"], max_err)
+        t["removed"] += n_removed
         return self.stats
 
     def run(self, duration: float, frame_dt: float = 0.02, callback=None) -> None:
@@ -170,9 +177,10 @@ class Simulator:
         return build(s.x, self._walls, s.Vb, self.h, self.V0, self.volume_map, self._wall_edges)
 
     def _active(self):
-        """Index array of active particles, or None when all are active (fast path)."""
-        born = self.system.birth <= self.time + 1e-9
-        return None if born.all() else np.flatnonzero(born)
+        """Index array of active particles (born, not removed), or None when all are active
+        (fast path)."""
+        act = self.system.active(self.time)
+        return None if act.all() else np.flatnonzero(act)
 
     def _state(self, active) -> State:
         sy = self.system
@@ -206,7 +214,10 @@ class Simulator:
         n = math.ceil(remaining / dt - 1e-9)
         return remaining / max(n, 1)
 
-    def _check(self, s: State, active) -> None:
+    def _check(self, s: State, active) -> int:
+        """Stop on NaN, a speed above ``max_speed`` or (``on_escape = "error"``) a particle
+        outside the domain; with "remove", mark those particles removed now. Returns how
+        many were removed."""
         if not (np.isfinite(s.x).all() and np.isfinite(s.v).all()):
             bad = int((~np.isfinite(s.x).all(1) | ~np.isfinite(s.v).all(1)).sum())
             raise SimulationDiverged(f"simulation diverged: state turned NaN/inf at "
@@ -218,10 +229,15 @@ class Simulator:
                                      f"sph.max_speed = {self.cfg.max_speed:g} at t = {self.time:.4f} s")
         lo, hi = self.system.domain
         out = ~((s.x >= lo) & (s.x <= hi)).all(1)
-        if out.any():
-            i = int(np.flatnonzero(out)[0])
-            raise SimulationDiverged(f"{int(out.sum())} fluid particle(s) left the domain at "
-                                     f"t = {self.time:.4f} s, e.g. at {np.round(s.x[i], 4).tolist()}")
+        if not out.any():
+            return 0
+        if self.cfg.on_escape == "remove":
+            gone = np.flatnonzero(out)
+            self.system.death[gone if active is None else active[gone]] = self.time
+            return len(gone)
+        i = int(np.flatnonzero(out)[0])
+        raise SimulationDiverged(f"{int(out.sum())} fluid particle(s) left the domain at "
+                                 f"t = {self.time:.4f} s, e.g. at {np.round(s.x[i], 4).tolist()}")
 
 
 def _check_system(sy: ParticleSystem) -> None:
@@ -240,6 +256,8 @@ def _check_system(sy: ParticleSystem) -> None:
         raise DcdcError("gravity contains NaN/inf")
     if not np.isfinite(sy.birth).all():
         raise DcdcError("birth times contain NaN/inf")
+    if np.isnan(sy.death).any():
+        raise DcdcError("death (removal) times contain NaN (inf = never removed)")
     sy.check_inside_domain()
     check_fluid_outside_walls(sy.x, sy.wall_x, sy.wall_n, sy.spacing)
 
