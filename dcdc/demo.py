@@ -18,6 +18,7 @@ import click
 import numpy as np
 
 from .errors import DcdcError, SimulationDiverged
+from .particles import active_mask
 
 
 DEMO_SCENE = "cocktail"
@@ -25,7 +26,7 @@ DEMO_RESOLUTION = 2.0  # the 2-D cocktail section at scale 1 holds only ~400 par
 
 
 def _active(traj, frame: int):
-    return traj.birth <= traj.time[frame] + 1e-9
+    return active_mask(traj.birth, getattr(traj, "death", None), float(traj.time[frame]))
 
 
 def stratification(traj, frame: int) -> list[tuple[str, float, float]]:

@@ -184,6 +184,11 @@ def test_generate_keeps_the_trajectory_and_its_deaths(removed_run, tmp_path):
     assert [int(t.active(k).sum()) for k in (0, FRAMES)] == [t.n_particles, t.n_particles - n]
     assert np.array_equal(t.window(2, 3)["death"], t.death)
     assert np.array_equal(t.system(FRAMES).active(t.time[-1]), t.active(FRAMES))
+    # training windows leave out particles removed before the window's last frame
+    from dcdc.train.sampler import load_window
+    ds = Dataset(tmp_path / "ok")
+    assert load_window(ds, 0, 0, FRAMES + 1)["position"].shape[1] == t.n_particles - n
+    assert load_window(ds, 0, 0, 2)["position"].shape[1] == int((t.death > t.time[1]).sum())
     index = json.loads((tmp_path / "ok" / "dataset.json").read_text())
     assert index["runs"][-1]["removed"] == n and Dataset(tmp_path / "ok").summary()["removed"] == n
 

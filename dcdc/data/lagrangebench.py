@@ -49,6 +49,9 @@ def _export(splits: dict, out: Path, connectivity_radius: float | None) -> dict:
         for t in trajs:
             if (t.birth > 0).any():
                 raise DcdcError(f"{t.name}: has emitted particles; LagrangeBench needs a fixed particle set")
+            if np.isfinite(t.death).any():
+                raise DcdcError(f"{t.name}: particles were removed (on_escape = remove); "
+                                f"LagrangeBench needs a fixed particle set")
         dims = {t.dim for t in trajs}
         dts = {round(t.frame_dt, 9) for t in trajs}
         radii = {t.radius for t in trajs}

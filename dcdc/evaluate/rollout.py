@@ -142,8 +142,9 @@ class NeuralSimulator:
 
     # ------------------------------------------------------------------ stepping
     def active(self) -> np.ndarray:
-        """Boolean mask of the particles born by now."""
-        return self.system.birth <= self.time + 1e-9
+        """Boolean mask of the particles taking part now: born and not removed
+        (:meth:`~dcdc.particles.ParticleSystem.active`)."""
+        return self.system.active(self.time)
 
     def step(self) -> dict:
         """One network step of Δt; returns ``self.stats``; raises :class:`RolloutStopped`."""

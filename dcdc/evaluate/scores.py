@@ -65,10 +65,9 @@ def one_two_step_errors(model, traj, stride: int = 5) -> tuple[float, float, int
     rho = traj.density.astype(np.float64)
     wx, wn = torch.as_tensor(traj.wall_x), torch.as_tensor(traj.wall_n)
     g = torch.as_tensor(traj.gravity)
-    birth, times = traj.birth, traj.time
     pos, vel = traj.position, traj.velocity
     for f in range(0, T - 2, stride):
-        act = birth <= times[f] + 1e-9
+        act = traj.active(f)
         if not act.any():
             continue
         with torch.no_grad():
@@ -124,7 +123,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
     pos_t, vel_t = traj.position, traj.velocity
     near, perr, ke_p, ke_t, mom = [], [], [], [], []
     for k in range(1, K + 1):
-        act = traj.birth <= traj.time[k] + 1e-9
+        act = traj.active(k)
         xp, xt = ro.position[k][act], pos_t[k][act]
         near.append(M.nearest_error(xp, xt))
         perr.append(M.position_error(xp, xt))
@@ -132,7 +131,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         ke_t.append(M.kinetic_energy(vel_t[k][act], mass[act]))
         dP = M.momentum(ro.velocity[k][act], mass[act]) - M.momentum(vel_t[k][act], mass[act])
         mom.append(float(np.linalg.norm(dP)) / max(float(mass[act].sum()), 1e-30))
-    act = traj.birth <= traj.time[K] + 1e-9
+    act = traj.active(K)
     dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
     pred = physical_state(ro.position[K].astype(np.float64), phase, phases, traj.radius,
                           traj.wall_x, dmin, act)

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..outputs import atomic_file
 from ..errors import DcdcError
+from ..particles import active_mask
 
 
 def _as_3d(a: np.ndarray) -> np.ndarray:
@@ -199,7 +200,8 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None,
     out_dir = Path(out_dir)
     frames = range(traj.n_frames) if frames is None else frames
     colors = np.array([p.color for p in traj.phases], np.float64).reshape(-1, 3)
-    phase, density, birth, times = traj.phase, traj.density, traj.birth, traj.time
+    phase, density, times = traj.phase, traj.density, traj.time
+    birth, death = traj.birth, getattr(traj, "death", None)
     ids = np.arange(traj.n_particles, dtype=np.int32)
     written, entries = [], []
     walls = f"walls{ext}"
@@ -218,7 +220,7 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None,
         mesh_files.append(f"walls_mesh_{m.name}{ext}")
         written.append(writer(out_dir / mesh_files[-1], m.vertices, triangles=m.triangles))
     for f in frames:
-        active = birth <= times[f] + 1e-9
+        active = active_mask(birth, death, float(times[f]))
         fields = {"id": ids[active], "phase": phase[active], "density": density[active],
                   "velocity": traj._get("velocity", f)[active]}
         name = f"frame_{f:05d}{ext}"

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import DcdcError
+from ..particles import active_mask
 from .camera import Camera, fit_camera
 from .splat import LIGHT, MATERIAL, clear, resolve, shade_layer, splat, splat_triangles
 
@@ -87,6 +88,7 @@ class FrameRenderer:
         self.shape = (camera.height * self.ss, camera.width * self.ss)
         self.colors = np.array([p.color for p in traj.phases], np.float64).reshape(-1, 3)
         self.phase, self.birth, self.times = traj.phase, traj.birth, traj.time
+        self.death = getattr(traj, "death", None)
         if len(self.phase) and self.phase.max() >= len(self.colors):
             raise DcdcError(f"{traj.name}: phase index {self.phase.max()} but only "
                             f"{len(self.colors)} phases are stored")
@@ -138,7 +140,7 @@ class FrameRenderer:
 
     def _present(self, f: int):
         x = self.traj._get("position", f)
-        return x, (self.birth <= self.times[f] + 1e-9) & np.isfinite(x).all(1)
+        return x, active_mask(self.birth, self.death, float(self.times[f])) & np.isfinite(x).all(1)
 
     def present(self, f: int) -> np.ndarray:
         """Positions of the particles emitted by frame ``f`` with finite coordinates (a

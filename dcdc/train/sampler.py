@@ -24,6 +24,7 @@ import torch
 from ..data.dataset import Dataset
 from ..errors import DcdcError
 from ..model.networks import Scenes
+from ..particles import TIME_EPS, active_mask
 from .curriculum import allowed, max_density_ratio
 
 
@@ -85,7 +86,11 @@ def load_window(ds: Dataset, traj: int, start: int, length: int) -> dict:
     """One window as float64 arrays, restricted to the particles present at ``start``."""
     t = ds[traj]
     w = t.window(start, length)
-    live = np.asarray(w["birth"]) <= float(w["time"][0]) + 1e-9
+    # present at the start and not removed before the window's last frame (a removed
+    # particle is frozen where it left: no target for the network)
+    live = active_mask(w["birth"], w.get("death"), float(w["time"][0]))
+    if w.get("death") is not None:
+        live &= np.asarray(w["death"]) > float(w["time"][-1]) + TIME_EPS
     return {"position": np.asarray(w["position"], np.float64)[:, live],
             "velocity": np.asarray(w["velocity"][0], np.float64)[live],
             "density": np.asarray(w["density"], np.float64)[live],
