@@ -1,4 +1,4 @@
-"""``dcdc scene``: list, show, check, copy and randomise scenes."""
+"""``dcdc scene``: list, show, check, copy, randomise and import scenes."""
 from __future__ import annotations
 
 import click
@@ -109,3 +109,27 @@ def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, out
         from . import parse
         from .draw import draw
         draw(parse(text, f"random seed {seed}").realize(), image)
+
+
+@scene_group.command("import")
+@click.argument("source", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Write the scene TOML here (default: stdout, with absolute mesh paths).")
+@click.option("--name", default=None, help="Scene name (default: the JSON file's name).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing OUTPUT.")
+def import_command(source, output, name, overwrite):
+    """Convert a DeepLagrangianFluids or SPlisHSPlasH scene JSON into a dcdc scene TOML.
+
+    Prints one warning line per item that has no dcdc equivalent (docs/scenes.md,
+    "Importing scenes"); the import succeeds all the same."""
+    from .importers import import_scene
+    if output:
+        check_file(output, overwrite)
+    res = import_scene(source, output, name)
+    for w in res.warnings:
+        click.echo(f"warning: {w}", err=True)
+    if output:
+        write_text(output, res.text)
+        click.echo(f"wrote {output} ({res.summary()})", err=True)
+    else:
+        click.echo(res.text, nl=False)

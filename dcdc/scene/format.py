@@ -6,6 +6,10 @@ dotted field and, where it can be found, its line ("phases.oil.density must be >
 (line 12)"). Realising a scene reports (never repairs) overlapping fluid blocks, fluid
 inside walls, fluid outside the domain and missing mesh files.
 
+Meshes (OBJ, STL, ... scaled per axis, rotated, translated) are walls (closed solids,
+containers or shells), fluid blocks (``shape = "mesh"``: a closed mesh's inside on the
+global lattice) and emitters (``shape = "mesh"``: that fluid released repeatedly).
+
 A 3-D scene also yields its 2-D cross-section (``dim=2``): every vector drops its z
 component, solids of revolution become their section through the axis, terrain is cut at
 ``slice_z`` and meshes are sectioned by the plane z = ``slice_z``. ``resolution`` S
@@ -29,7 +33,8 @@ FRAME_DT = 0.02
 
 # ------------------------------------------------------------------ schema
 # kinds: str, int, bool, float, pos (>0), nonneg (>=0), L (length > 0), L0 (length >= 0),
-# vec (dim floats), vecL (dim floats, a position/length), color, profileL ([[r, y], ...]
+# vec (dim floats), vecL (dim floats, a position/length), vec3 / vec3L (3 floats / lengths,
+# whatever dim), scale (a factor > 0 or one per axis), color, profileL ([[r, y], ...]
 # lengths), pairL ([a, b] lengths), pair ([a, b] floats), table (free-form)
 REQ = object()  # marks a required key
 
@@ -43,6 +48,11 @@ TOP = {
 DOMAIN = {"min": ("vecL", REQ), "max": ("vecL", REQ)}
 PHASE = {"density": ("pos", REQ), "viscosity": ("nonneg", 1e-6), "color": ("color", None)}
 WALL_COMMON = {"shape": ("str", REQ)}
+# a mesh file placed in the scene: scaled, rotated about the origin, translated (walls,
+# fluid and emitters of shape "mesh"); slice_z: the plane of the 2-D cross-section
+MESH_PLACE = {"file": ("str", REQ), "scale": ("scale", 1.0), "translate": ("vec3L", None),
+              "rotation_axis": ("vec3", None), "rotation_degrees": ("float", 0.0),
+              "slice_z": ("float", 0.0)}
 WALL_SHAPES = {
     "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "hollow": ("bool", False),
             "open_top": ("bool", True)},
@@ -59,8 +69,7 @@ WALL_SHAPES = {
                 "channels": ("int", 2), "channel_depth": ("L0", 0.15), "channel_width": ("L", 0.3),
                 "depressions": ("int", 3), "depression_depth": ("L0", 0.15),
                 "depression_radius": ("L", 0.3), "slice_z": ("float", None)},
-    "mesh": {"file": ("str", REQ), "scale": ("pos", 1.0), "translate": ("vec3L", None),
-             "hollow": ("bool", False), "slice_z": ("float", 0.0), "thickness": ("L", None),
+    "mesh": {**MESH_PLACE, "hollow": ("bool", False), "thickness": ("L", None),
              "invert_normals": ("bool", False)},
 }
 FLUID_COMMON = {"phase": ("str", REQ), "shape": ("str", REQ), "velocity": ("vec", None),
@@ -73,10 +82,16 @@ FLUID_SHAPES = {
                  "axis": ("int", 1)},
     "fill": {"inside": ("str", REQ), "min": ("vecL", None), "max": ("vecL", None),
              "clearance": ("L0", None), "top_wave": ("pair", None), "bottom_wave": ("pair", None)},
+    "mesh": {**MESH_PLACE, "clearance": ("L0", None)},
 }
-EMITTER = {"phase": ("str", REQ), "position": ("vecL", REQ), "direction": ("vec", REQ),
-           "speed": ("pos", REQ), "radius": ("L", None), "rate": ("pos", None),
-           "start": ("nonneg", 0.0), "stop": ("pos", REQ)}
+EMITTER = {"shape": ("str", "nozzle"), "phase": ("str", REQ), "position": ("vecL", REQ),
+           "direction": ("vec", REQ), "speed": ("pos", REQ), "radius": ("L", None),
+           "rate": ("pos", None), "start": ("nonneg", 0.0), "stop": ("pos", REQ)}
+# the fluid inside a closed mesh released whole at start, start + interval, ... < stop
+EMITTER_MESH = {"shape": ("str", REQ), "phase": ("str", REQ), **MESH_PLACE,
+                "velocity": ("vec", None), "start": ("nonneg", 0.0), "stop": ("pos", REQ),
+                "interval": ("pos", REQ)}
+EMITTER_SHAPES = {"nozzle": EMITTER, "mesh": EMITTER_MESH}
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 DEFAULT_COLORS = [(0.85, 0.2, 0.15), (0.2, 0.7, 0.25), (0.15, 0.35, 0.85), (0.95, 0.75, 0.1),
                   (0.6, 0.3, 0.75), (0.1, 0.7, 0.75), (0.9, 0.45, 0.1), (0.5, 0.5, 0.5)]
@@ -170,8 +185,16 @@ class _Checker:
             return float(v)
         if kind in ("vec", "vecL"):
             return vec(dim)
-        if kind == "vec3L":
+        if kind in ("vec3", "vec3L"):
             return vec(3)
+        if kind == "scale":
+            if num(v):
+                if not v > 0:
+                    self.fail(path, f"must be > 0 (got {v})")
+                return float(v)
+            if not (isinstance(v, list) and len(v) == 3 and all(num(c) and c > 0 for c in v)):
+                self.fail(path, f"must be a number > 0 or a list of 3 numbers > 0 (got {v!r})")
+            return [float(c) for c in v]
         if kind in ("pair", "pairL"):
             return vec(2)
         if kind == "color":
@@ -255,6 +278,8 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
             ck.fail(f"{p}.axis", f"must be 0..{dim - 1}")
         if shape == "hourglass" and walls[name]["neck"] >= walls[name]["radius"]:
             ck.fail(f"{p}.neck", "must be smaller than radius")
+        if shape == "mesh":
+            _check_rotation(ck, p, walls[name])
         if shape == "mesh" and walls[name]["thickness"] is not None and walls[name]["hollow"]:
             ck.fail(f"{p}.hollow", "does not apply to a shell (thickness): its side is behind "
                     "the faces, or in front of them with invert_normals = true")
@@ -285,6 +310,8 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
             ck.fail(f"{p}.inside", f"names no wall (walls: {', '.join(walls) or 'none'})")
         if shape == "box" and not all(b > a for a, b in zip(fb["min"], fb["max"])):
             ck.fail(f"{p}.max", "must exceed min in every axis")
+        if shape == "mesh":
+            _check_rotation(ck, p, fb)
         fluids.append(fb)
     s["fluid"] = fluids
     if not isinstance(s["emitter"], list):
@@ -292,11 +319,20 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     ems = []
     for i, e in enumerate(s["emitter"]):
         p = f"emitter[{i}]"
-        em = ck.table(p, e, EMITTER, dim)
+        if not isinstance(e, dict):
+            ck.fail(p, "must be a table")
+        shape = e.get("shape", "nozzle")
+        if shape not in EMITTER_SHAPES:
+            ck.fail(f"{p}.shape", f"must be one of {', '.join(EMITTER_SHAPES)} (got {shape!r})")
+        em = ck.table(p, e, EMITTER_SHAPES[shape], dim)
         if em["phase"] not in phases:
             ck.fail(f"{p}.phase", f"names no phase (phases: {', '.join(phases)})")
-        if np.linalg.norm(em["direction"]) == 0:
+        if shape == "nozzle" and np.linalg.norm(em["direction"]) == 0:
             ck.fail(f"{p}.direction", "must be a non-zero vector")
+        if shape == "mesh":
+            _check_rotation(ck, p, em)
+            if em["velocity"] is None:
+                em["velocity"] = [0.0] * dim
         if em["stop"] <= em["start"]:
             ck.fail(f"{p}.stop", "must be later than start")
         ems.append(em)
@@ -304,6 +340,11 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     if not fluids and not ems:
         ck.fail("fluid", "is empty: a scene needs at least one [[fluid]] block or [[emitter]]")
     return s
+
+
+def _check_rotation(ck: _Checker, p: str, d: dict) -> None:
+    if d["rotation_degrees"] and (d["rotation_axis"] is None or not any(d["rotation_axis"])):
+        ck.fail(f"{p}.rotation_axis", "must be a non-zero vector when rotation_degrees is set")
 
 
 # ------------------------------------------------------------------ variants
@@ -340,18 +381,28 @@ def _transform(s: dict, dim: int, scale: float) -> dict:
             if w["slice_z"] is not None:
                 w["slice_z"] *= scale
         if w["shape"] == "mesh":
-            w["slice_z"] *= scale
-            w["scale"] *= scale
+            _scale_mesh(w, scale)
         conv(w, WALL_SHAPES[w["shape"]])
     for f in s["fluid"]:
+        if f["shape"] == "mesh":
+            _scale_mesh(f, scale)
         conv(f, {**FLUID_COMMON, **FLUID_SHAPES[f["shape"]]})
         for k in ("top_wave", "bottom_wave"):
             if f.get(k) is not None:
                 f[k] = [c * scale for c in f[k]]
     for e in s["emitter"]:
-        conv(e, EMITTER)
+        if e["shape"] == "mesh":
+            _scale_mesh(e, scale)
+        conv(e, EMITTER_SHAPES[e["shape"]])
     s["dim"] = dim
     return s
+
+
+def _scale_mesh(d: dict, scale: float) -> None:
+    """A placed mesh at resolution ``scale``: its scale and section plane (the translation
+    is a length and scaled with the others)."""
+    d["slice_z"] *= scale
+    d["scale"] = [c * scale for c in d["scale"]] if isinstance(d["scale"], list) else d["scale"] * scale
 
 
 # ------------------------------------------------------------------ realisation
@@ -364,7 +415,36 @@ class _Solid:
     mesh: object = None  # the trimesh of a mesh wall (for its checks)
 
 
-def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Solid]:
+def _mesh_file(field: str, file: str, base_dir: Path | None) -> Path:
+    """The path of a scene's mesh file: ``asset:NAME`` is a mesh shipped with dcdc
+    (dcdc/assets), a relative path is relative to the scene file."""
+    p = Path(file)
+    if file.startswith("asset:"):
+        from importlib import resources
+        p = Path(str(resources.files("dcdc").joinpath("assets", file[6:])))
+    elif not p.is_absolute():
+        p = (base_dir or Path.cwd()) / p
+    if not p.exists():
+        raise DcdcError(f"{field}.file: mesh file {p} not found")
+    return p
+
+
+def _placed_mesh(field: str, d: dict, base_dir: Path | None, cache: dict | None = None):
+    """The mesh of a wall, fluid block or emitter of shape "mesh", scaled, rotated and
+    translated; ``cache`` keeps each placed mesh of one realisation loaded once."""
+    from ..geometry import mesh as gm
+    p = _mesh_file(field, d["file"], base_dir)
+    key = (str(p), repr(d["scale"]), repr(d["rotation_axis"]), d["rotation_degrees"], repr(d["translate"]))
+    if cache is not None and key in cache:
+        return cache[key]
+    m = gm.load_placed_mesh(p, d["scale"], d["translate"], d["rotation_axis"], d["rotation_degrees"])
+    if cache is not None:
+        cache[key] = m
+    return m
+
+
+def _build_walls(s: dict, base_dir: Path | None, thickness: float,
+                 meshes: dict | None = None) -> list[_Solid]:
     from ..geometry import shapes as sh
     dim = s["dim"]
     # mesh SDFs are exact within this distance of the surface (sampled walls, normals,
@@ -416,15 +496,8 @@ def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Soli
             sdf = sh.heightfield(h, slice_z=sz)
             inside = (lambda f: lambda x: f(x) > 0)(sdf)
         elif shape == "mesh":
-            p = Path(w["file"])
-            if w["file"].startswith("asset:"):  # a mesh shipped with dcdc (dcdc/assets)
-                from importlib import resources
-                p = Path(str(resources.files("dcdc").joinpath("assets", w["file"][6:])))
-            elif not p.is_absolute():
-                p = (base_dir or Path.cwd()) / p
-            if not p.exists():
-                raise DcdcError(f"walls.{name}.file: mesh file {p} not found")
-            sdf = _mesh_wall(name, w, p, dim, band, 2 * s["radius"])
+            mesh = _placed_mesh(f"walls.{name}", w, base_dir, meshes)
+            sdf = _mesh_wall(name, w, mesh, dim, band, 2 * s["radius"])
             inside = (lambda f: lambda x: f(x) > 0)(sdf)
         else:  # pragma: no cover - validated before
             raise AssertionError(shape)
@@ -432,11 +505,10 @@ def _build_walls(s: dict, base_dir: Path | None, thickness: float) -> list[_Soli
     return out
 
 
-def _mesh_wall(name: str, w: dict, path: Path, dim: int, band: float, spacing: float):
+def _mesh_wall(name: str, w: dict, mesh, dim: int, band: float, spacing: float):
     """SDF of a mesh wall: the solid a closed mesh encloses (or, hollow, the space around
     it), or with ``thickness`` a shell behind (invert_normals: in front of) its faces."""
     from ..geometry import mesh as gm
-    mesh = gm.load_mesh(path, w["scale"], w["translate"])
     T = w["thickness"]
     if T is None:
         gm.require_closed(mesh, f"give walls.{name}.thickness to use it as an open surface "
@@ -485,9 +557,28 @@ def _union(solids):
     return lambda x: np.min(np.stack([w.sdf(x) for w in solids]), axis=0)
 
 
-def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, solids, union):
+def _mesh_fill(field: str, f: dict, dim: int, spacing: float, anchor, base_dir, meshes):
+    """Points of the global lattice at least r (half a spacing, as in a box) inside a
+    closed mesh, or in 2-D inside its cross-section by the plane z = ``slice_z``."""
+    from ..geometry import lattice, mesh as gm
+    m = _placed_mesh(field, f, base_dir, meshes)
+    try:
+        inside = gm.mesh_interior(m, spacing / 2, None if dim == 3 else f["slice_z"])
+    except DcdcError as e:
+        raise DcdcError(f"{field}.file: {e}") from None
+    pts = lattice(np.asarray(m.bounds[0][:dim]), np.asarray(m.bounds[1][:dim]), spacing, anchor)
+    return pts[inside(pts)] if len(pts) else pts
+
+
+def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, solids, union,
+                  field: str = "fluid", base_dir: Path | None = None, meshes: dict | None = None):
     from ..geometry import lattice, shapes as sh
     shape = f["shape"]
+    if shape == "mesh":
+        pts = _mesh_fill(field, f, dim, spacing, anchor, base_dir, meshes)
+        if f["clearance"] is not None and solids and len(pts):
+            pts = pts[union(pts) >= f["clearance"] - 1e-9]
+        return pts
     if shape == "box":
         lo, hi = np.array(f["min"]), np.array(f["max"])
         top, bot = f["top_wave"], f["bottom_wave"]
@@ -569,6 +660,43 @@ def _emitter_points(e: dict, dim: int, spacing: float):
     return x, v, b
 
 
+def _releases(e: dict) -> int:
+    """Releases of a mesh emitter: at start + k·interval before stop."""
+    return int(math.ceil((e["stop"] - e["start"]) / e["interval"] - 1e-9))
+
+
+def _mesh_emitter_points(e: dict, field: str, dim: int, spacing: float, anchor, base_dir, meshes):
+    """A mesh emitter's particles: the mesh's fluid (as a [[fluid]] of shape "mesh"),
+    once per release, born at start + k·interval."""
+    pos = _mesh_fill(field, e, dim, spacing, anchor, base_dir, meshes)
+    births = e["start"] + e["interval"] * np.arange(_releases(e))
+    x = np.tile(pos, (len(births), 1))
+    b = np.repeat(births, len(pos))
+    v = np.tile(np.asarray(e["velocity"], dtype=np.float64), (len(x), 1))
+    return x, v, b
+
+
+def _budget_view(s: dict, base_dir: Path | None, meshes: dict) -> dict:
+    """The scene as :mod:`.budget` counts it: a mesh fluid as the box of its mesh's
+    bounds, a mesh emitter as that box stretched along x to hold all its releases."""
+    if not any(f["shape"] == "mesh" for f in s["fluid"] + s["emitter"]):
+        return s
+    dim, sp = s["dim"], 2 * s["radius"]
+    v = dict(s, fluid=[], emitter=[])
+    for kind in ("fluid", "emitter"):
+        for i, f in enumerate(s[kind]):
+            if f["shape"] != "mesh":
+                v[kind].append(f)
+                continue
+            m = _placed_mesh(f"{kind}[{i}]", f, base_dir, meshes)
+            lo, hi = [float(c) for c in m.bounds[0][:dim]], [float(c) for c in m.bounds[1][:dim]]
+            if kind == "emitter":  # n releases: floor(len / sp) + 1 points along x, n times
+                n_x = math.floor(max(hi[0] - lo[0], 0.0) / sp) + 1
+                hi[0] = lo[0] + (n_x * _releases(f) - 1) * sp
+            v["fluid"].append({"shape": "box", "min": lo, "max": hi})
+    return v
+
+
 @dataclass
 class Scene:
     """A validated scene. ``data`` holds every field with defaults filled in."""
@@ -624,15 +752,17 @@ class Scene:
         from . import budget
 
         s = self.variant(dim, resolution)
-        budget.check(s, str(self.path.name) if self.path else self.name, frames, max_particles)
+        base_dir = self.path.parent if self.path else None
+        meshes: dict = {}  # placed meshes, each loaded once
+        budget.check(_budget_view(s, base_dir, meshes), str(self.path.name) if self.path else self.name,
+                     frames, max_particles)
         dim = s["dim"]
         r = s["radius"]
         spacing = 2 * r
         anchor = np.full(dim, r)  # global lattice: odd multiples of r
         thickness = s["wall_thickness"] or 4 * r
         lo, hi = np.array(s["domain"]["min"]), np.array(s["domain"]["max"])
-        base_dir = self.path.parent if self.path else None
-        solids = _build_walls(s, base_dir, thickness)
+        solids = _build_walls(s, base_dir, thickness, meshes)
         union = _union(solids)
         if solids:
             pad = thickness + spacing
@@ -646,7 +776,8 @@ class Scene:
         xs, vs, ph, births, blocks = [], [], [], [], []
         src = str(self.path.name) if self.path else self.name
         for i, f in enumerate(s["fluid"]):
-            pts = _fluid_points(f, dim, spacing, anchor, lo, hi, solids, union)
+            pts = _fluid_points(f, dim, spacing, anchor, lo, hi, solids, union, f"fluid[{i}]",
+                                base_dir, meshes)
             label = f"fluid[{i}]" + (f" ({f['name']})" if f["name"] else f" ({f['phase']})")
             line = _find_line(self.text, f"fluid[{i}]")
             at = f" (line {line})" if line else ""
@@ -676,11 +807,19 @@ class Scene:
             ph.append(np.full(len(pts), names.index(f["phase"])))
             births.append(np.zeros(len(pts)))
         for i, e in enumerate(s["emitter"]):
-            x, v, b = _emitter_points(e, dim, spacing)
-            if check and solids and (union(x) < 0.5 * r).any():
-                raise DcdcError(f"{src}: emitter[{i}] nozzle lies inside a wall")
+            if e["shape"] == "mesh":
+                x, v, b = _mesh_emitter_points(e, f"emitter[{i}]", dim, spacing, anchor, base_dir, meshes)
+                what = "mesh volume"
+                if check and not len(x):
+                    raise DcdcError(f"{src}: emitter[{i}] ({e['phase']}) holds no particles at this "
+                                    "resolution")
+            else:
+                x, v, b = _emitter_points(e, dim, spacing)
+                what = "nozzle"
+            if check and solids and len(x) and (union(x) < 0.5 * r).any():
+                raise DcdcError(f"{src}: emitter[{i}] {what} lies inside a wall")
             if check and not ((x >= lo) & (x <= hi)).all():
-                raise DcdcError(f"{src}: emitter[{i}] nozzle lies outside the domain")
+                raise DcdcError(f"{src}: emitter[{i}] {what} lies outside the domain")
             xs.append(x)
             vs.append(v)
             ph.append(np.full(len(x), names.index(e["phase"])))

@@ -1,0 +1,512 @@
+"""SPlisHSPlasH scene JSON (its ``doc/file_format.md``; the scenes in its data/Scenes) as a
+dcdc scene.
+
+What maps:
+
+* ``Configuration``: ``particleRadius`` → radius, ``gravitation`` → gravity, ``stopAt`` →
+  duration (else 2 s), ``dataExportFPS`` → frame_dt; into ``[solver]``: ``simulationMethod``
+  0 → WCSPH (``exponent`` → stiffness_exponent), 4 → DFSPH; ``cflFactor`` f → cfl = 0.4 f
+  (their CFL step is 0.4 f · 2r / v_max, ours cfl · 2r / v_max), ``cflMaxTimeStepSize`` /
+  ``cflMinTimeStepSize`` → dt_max / dt_min, ``maxIterations`` → max_iterations, ``maxError``
+  / ``maxErrorV`` (percent) → density_tolerance / divergence_tolerance, ``enableDivergenceSolver``
+  → divergence_solve, ``boundaryHandlingMethod`` 0 (Akinci 2012 particles) → boundary =
+  "particles", 2 (volume maps) → "map".
+* ``Materials`` (and the older ``Fluid`` / per-id blocks and material keys in
+  ``Configuration``): one phase per id, ``density0`` (default 1000) → density,
+  ``viscosity`` with ``viscosityMethod`` 1 (standard, a kinematic viscosity) → viscosity;
+  ``maxEmitterParticles`` caps that phase's emitters.
+* ``RigidBodies`` (static; a dynamic one becomes a static wall, with a warning):
+  ``geometryFile`` with ``scale`` (per axis), ``rotationAxis`` / ``rotationAngle``
+  (radians), ``translation`` → a ``mesh`` wall. A closed mesh is a container (``hollow``)
+  when ``mapInvert`` says so — with particle boundaries, or without ``mapInvert``, when the
+  fluid lies inside it — else a solid; an open mesh is a 4r shell on the side away from
+  the fluid.
+* ``FluidBlocks``: ``start`` / ``end`` scaled and translated → a ``box`` block,
+  ``initialVelocity`` → velocity; ``FluidModels`` with a mesh ``particleFile`` (OBJ, PLY,
+  STL, OFF) → a ``mesh`` block (scaled, rotated, translated).
+* ``Emitters``: position ``translation``, direction the first column of the rotation (or
+  the older ``direction``), ``velocity`` → speed, ``emitStartTime`` / ``emitEndTime`` →
+  start / stop, ``emitsPerSecond`` → rate; a circle of ``width`` w particles has radius
+  w·r, a w × h box becomes a round nozzle of the same area (with a warning).
+
+Everything else that changes the physics (other solvers and viscosity methods, surface
+tension, vorticity, drag, elasticity, animation fields, dynamic bodies, particle
+files, particle reuse) is one warning line per item; viewer and export settings are
+named together in one line.
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import DcdcError
+from .common import Reader, domain, finish, scene_name, toml_path, unique
+
+FMT = "SPlisHSPlasH"
+DEFAULT_ID = "Fluid"
+SECTIONS = {"Configuration", "Simulation", "Materials", "Fluid", "RigidBodies", "FluidBlocks",
+            "FluidModels", "Emitters", "AnimationFields"}
+# PositionBasedDynamics sections (dynamic bodies, cloth, joints) that SPlisHSPlasH passes on
+PBD_SECTIONS = {"TriangleModels", "TetModels", "BallJoints", "BallOnLineJoints", "HingeJoints",
+                "UniversalJoints", "SliderJoints", "RigidBodyParticleBallJoints", "RigidBodySprings",
+                "DistanceJoints", "DamperJoints", "TargetAngleMotorHingeJoints",
+                "TargetVelocityMotorHingeJoints", "TargetPositionMotorSliderJoints",
+                "TargetVelocityMotorSliderJoints"}
+CONFIG_VIEWER = {"pause", "pauseAt", "cameraPosition", "cameraLookat", "numberOfStepsPerRenderUpdate",
+                 "renderWalls", "enablePartioExport", "enableVTKExport", "enableRigidBodyExport",
+                 "enableRigidBodyVTKExport", "particleAttributes", "enableStateExport",
+                 "stateExportFPS", "enableZSort", "enableAsyncExport", "enableObjectSplitting",
+                 "partioExportFPS", "comment"}
+CONFIG_KEYS = {"particleRadius", "gravitation", "stopAt", "dataExportFPS", "simulationMethod",
+               "cflMethod", "cflFactor", "cflMinTimeStepSize", "cflMaxTimeStepSize", "maxIterations",
+               "maxError", "maxIterationsV", "maxErrorV", "enableDivergenceSolver",
+               "boundaryHandlingMethod", "exponent", "stiffness", "sim2D", "timeStepSize",
+               "velocityUpdateMethod", "kernel", "gradKernel"}
+MATERIAL_VIEWER = {"colorField", "colorMapType", "renderMinValue", "renderMaxValue", "visible",
+                   "comment"}
+MATERIAL_KEYS = {"id", "density0", "viscosity", "viscosityMethod", "viscosityBoundary",
+                 "viscoMaxIter", "viscoMaxError", "viscoMaxIterOmega", "viscoMaxErrorOmega",
+                 "surfaceTension", "surfaceTensionMethod", "surfaceTensionBoundary", "vorticity",
+                 "vorticityMethod", "viscosityOmega", "inertiaInverse", "drag", "dragMethod",
+                 "elasticityMethod", "youngsModulus", "poissonsRatio", "alpha", "elasticityMaxIter",
+                 "elasticityMaxError", "maxEmitterParticles", "emitterReuseParticles",
+                 "emitterBoxMin", "emitterBoxMax", "xsph", "xsphBoundary",
+                 re.compile(r"^surfT"), re.compile(r"^visco"), re.compile(r"^elasticity")}
+BODY_VIEWER = {"color", "isWall", "samplingMode", "mapResolution", "flatShading", "comment"}
+BODY_KEYS = {"id", "geometryFile", "particleFile", "translation", "scale", "rotationAxis",
+             "rotationAngle", "isDynamic", "mapInvert", "mapThickness", "friction", "restitution",
+             "density", "velocity", "angularVelocity", "collisionObjectType",
+             "collisionObjectScale", "invertSDF", "isAnimated"}
+BLOCK_KEYS = {"id", "start", "end", "translation", "scale", "denseMode", "initialVelocity",
+              "initialAngularVelocity"}
+MODEL_KEYS = {"id", "particleFile", "translation", "scale", "rotationAxis", "rotationAngle",
+              "initialVelocity", "initialAngularVelocity", "denseMode", "resolutionSDF", "invert"}
+EMITTER_KEYS = {"id", "width", "height", "translation", "rotationAxis", "rotationAngle",
+                "velocity", "direction", "emitStartTime", "emitEndTime", "type", "emitsPerSecond",
+                "comment"}
+FIELD_KEYS = {"particleField", "translation", "rotationAxis", "rotationAngle", "scale", "shapeType",
+              "expression_x", "expression_y", "expression_z", "startTime", "endTime", "comment"}
+MESH_EXT = (".obj", ".ply", ".stl", ".off")
+METHODS = {0: "WCSPH", 1: "PCISPH", 2: "PBF", 3: "IISPH", 4: "DFSPH", 5: "Projective Fluids",
+           6: "ICSPH"}
+VISCOSITY = {1: "standard", 2: "XSPH", 3: "Bender and Koschier 2017", 4: "Peer et al. 2015",
+             5: "Peer et al. 2016", 6: "Takahashi et al. 2015", 7: "Weiler et al. 2018"}
+
+
+def is_splishsplash(data) -> bool:
+    return isinstance(data, dict) and bool(set(data) & (SECTIONS - {"Fluid"}))
+
+
+class _Import:
+    """One conversion: the reader, the warnings, the viewer keys left out."""
+
+    def __init__(self, path: Path, output: Path | None):
+        self.rd = Reader(path.name)
+        self.path, self.base, self.output = path, path.parent, output
+        self.warnings: list[str] = []
+        self.viewer: list[str] = []
+
+    def warn(self, msg: str):
+        self.warnings.append(msg)
+
+    def keys(self, obj: dict, where: str, known: set, viewer: set, what: str):
+        self.rd.keys(obj, where, known | viewer, f"SPlisHSPlasH {what}")
+        self.viewer += [f"{where}.{k}" for k in obj if k in viewer and k != "comment"]
+
+    def file(self, name: str, where: str) -> Path:
+        p = Path(name)
+        p = p if p.is_absolute() else self.base / p
+        if not p.exists():
+            raise DcdcError(f"{self.path.name}: {where}: mesh file {p} not found")
+        return p
+
+    def placement(self, obj: dict, where: str):
+        """(scale as dcdc writes it, translation, rotation axis, degrees) of an item."""
+        rd = self.rd
+        s = rd.vec3(obj, "scale", where, [1.0, 1.0, 1.0], scalar_ok=True)
+        if any(c <= 0 for c in s):
+            rd.fail(f"{where}.scale", f"must be > 0 in every axis (got {s}; mirroring is not mapped)")
+        t = rd.vec3(obj, "translation", where, [0.0, 0.0, 0.0])
+        axis = rd.vec3(obj, "rotationAxis", where, [0.0, 0.0, 1.0])
+        deg = math.degrees(rd.number(obj, "rotationAngle", where, 0.0))
+        if deg and not any(axis):
+            rd.fail(f"{where}.rotationAxis", "must be a non-zero vector")
+        return (s[0] if s[0] == s[1] == s[2] else s), t, axis, deg
+
+
+def _placed(scale, t, axis, deg) -> dict:
+    d = {"scale": scale, "translate": t}
+    if deg:
+        d.update(rotation_axis=axis, rotation_degrees=round(deg, 9))
+    return d
+
+
+def _materials(im: _Import, data: dict, ids_used: set) -> dict:
+    """id -> (where, parameter table), later definitions of an id overriding earlier ones."""
+    rd = im.rd
+    out: dict = {}
+    cfg = data.get("Configuration", {})
+    legacy = {k: v for k, v in cfg.items() if k in MATERIAL_KEYS or any(
+        isinstance(p, re.Pattern) and p.match(k) for p in MATERIAL_KEYS) or k in MATERIAL_VIEWER - {"comment"}}
+    if legacy:  # older files keep the fluid's parameters in Configuration
+        out[DEFAULT_ID] = ("Configuration", legacy)
+    for k in [DEFAULT_ID] + sorted(ids_used - {DEFAULT_ID}):
+        if k in data:  # older per-id parameter blocks at the top level
+            m = rd.table(data[k], k)
+            im.keys(m, k, MATERIAL_KEYS, MATERIAL_VIEWER, "material")
+            out[k] = (k, {**out.get(k, ("", {}))[1], **m})
+    for i, m in enumerate(rd.items(data, "Materials")):
+        where = f"Materials[{i}]"
+        im.keys(m, where, MATERIAL_KEYS, MATERIAL_VIEWER, "material")
+        mid = rd.string(m, "id", where, DEFAULT_ID)
+        out[mid] = (where, m)
+    return out
+
+
+def _phase(im: _Import, mid: str, where: str, m: dict) -> tuple[dict, int | None]:
+    """The dcdc phase of a material and its emitter particle cap."""
+    rd = im.rd
+    label = f"{where} ({mid})"
+    phase = {"density": rd.number(m, "density0", where, 1000.0, positive=True)}
+    method = rd.integer(m, "viscosityMethod", where, 0)
+    nu = rd.number(m, "viscosity", where, None, nonneg=True)
+    if method and nu is not None:
+        name = VISCOSITY.get(method, f"method {method}")
+        if method == 2:
+            im.warn(f"{label}: XSPH viscosity coefficient {nu:g} (dimensionless) not mapped; the "
+                    "phase keeps dcdc's default viscosity")
+        else:
+            phase["viscosity"] = nu
+            if method != 1:
+                im.warn(f"{label}: viscosity method {method} ({name}) mapped to dcdc's explicit "
+                        f"viscosity with ν = {nu:g} m²/s")
+    for key, coef, what in (("surfaceTensionMethod", "surfaceTension", "surface tension"),
+                            ("vorticityMethod", "vorticity", "vorticity"),
+                            ("dragMethod", "drag", "drag"),
+                            ("elasticityMethod", "youngsModulus", "elasticity")):
+        k = rd.integer(m, key, where, 0)
+        if k:
+            c = m.get(coef)
+            extra = (" (dcdc has interfacial tension between phases only: "
+                     "[solver.interfacial_tension])") if what == "surface tension" else ""
+            im.warn(f"{label}: {what} (method {k}" + (f", coefficient {c}" if c is not None else "")
+                    + f") not mapped{extra}")
+    if rd.flag(m, "emitterReuseParticles", where, False):
+        im.warn(f"{label}: emitterReuseParticles not mapped (dcdc does not recycle particles that "
+                "leave the emitter box)")
+    cap = rd.integer(m, "maxEmitterParticles", where, None)
+    return phase, cap
+
+
+def _solver(im: _Import, cfg: dict) -> dict:
+    rd, w = im.rd, "Configuration"
+    out: dict = {}
+    method = rd.integer(cfg, "simulationMethod", w, 4)
+    if method == 0:
+        out["solver"] = "wcsph"
+        e = rd.number(cfg, "exponent", w, None, positive=True)
+        if e is not None:
+            out["stiffness_exponent"] = e
+        if "stiffness" in cfg:
+            im.warn(f"Configuration.stiffness {cfg['stiffness']}: not mapped (dcdc's WCSPH sets a speed "
+                    "of sound, [solver] sound_speed)")
+    elif method != 4:
+        im.warn(f"Configuration.simulationMethod {method} ({METHODS.get(method, 'unknown')}): "
+                "not mapped; dcdc runs DFSPH")
+    cfl_method = rd.integer(cfg, "cflMethod", w, 1)
+    if cfl_method == 0:
+        im.warn("Configuration.cflMethod 0 (fixed time step"
+                + (f" {cfg['timeStepSize']} s" if "timeStepSize" in cfg else "")
+                + "): not mapped; dcdc's substeps are CFL-adaptive")
+    f = rd.number(cfg, "cflFactor", w, None, positive=True)
+    if f is not None:
+        out["cfl"] = min(round(0.4 * f, 9), 1.0)
+        if 0.4 * f > 1.0:
+            im.warn(f"Configuration.cflFactor {f:g}: dcdc's cfl is at most 1 (= cflFactor 2.5)")
+    hi = rd.number(cfg, "cflMaxTimeStepSize", w, None, positive=True)
+    lo = rd.number(cfg, "cflMinTimeStepSize", w, None, positive=True)
+    if hi is not None:
+        out["dt_max"] = hi
+    if lo is not None:
+        if lo <= (hi if hi is not None else 0.005):
+            out["dt_min"] = lo
+        else:
+            im.warn(f"Configuration.cflMinTimeStepSize {lo:g} exceeds the largest step; not mapped")
+    n = rd.integer(cfg, "maxIterations", w, None)
+    if n is not None:
+        if n < 1:
+            rd.fail(f"{w}.maxIterations", f"must be >= 1 (got {n})")
+        out["max_iterations"] = n
+    nv = rd.integer(cfg, "maxIterationsV", w, None)
+    if nv is not None and nv != (n if n is not None else 100):
+        im.warn(f"Configuration.maxIterationsV {nv}: not mapped (dcdc has one limit for both solves, "
+                f"max_iterations = {n if n is not None else 100})")
+    for key, name in (("maxError", "density_tolerance"), ("maxErrorV", "divergence_tolerance")):
+        e = rd.number(cfg, key, w, None, positive=True)
+        if e is not None:
+            out[name] = e / 100.0  # percent
+    if "enableDivergenceSolver" in cfg:
+        out["divergence_solve"] = rd.flag(cfg, "enableDivergenceSolver", w)
+    b = rd.integer(cfg, "boundaryHandlingMethod", w, None)
+    if b == 0:
+        out["boundary"] = "particles"
+    elif b == 1:
+        im.warn("Configuration.boundaryHandlingMethod 1 (density maps): not mapped; dcdc uses its "
+                "volume map")
+    for key in ("kernel", "gradKernel"):
+        if key in cfg:
+            im.warn(f"Configuration.{key} {cfg[key]}: not mapped (dcdc's kernels are fixed)")
+    if rd.flag(cfg, "sim2D", w, False):
+        im.warn("Configuration.sim2D: imported as a 3-D scene; run its z = 0 section with --dim 2")
+    from ...sph import SPHConfig
+    try:
+        SPHConfig.from_dict(out)
+    except DcdcError as e:
+        raise DcdcError(f"{im.path.name}: Configuration: {e}") from None
+    return out
+
+
+def _inside_any(mesh, points) -> bool:
+    from ...geometry import mesh as gm
+    if not points:
+        return False
+    return bool(gm.MeshDistance(mesh).inside(np.asarray(points, dtype=np.float64)).any())
+
+
+def _front_side(mesh, points) -> bool:
+    """Whether most of ``points`` lie in front of an open surface (its normals' side)."""
+    from ...geometry import mesh as gm
+    if not points:
+        return True
+    md = gm.MeshDistance(mesh)
+    x = np.asarray(points, dtype=np.float64)
+    _, c, i = md.closest(x, None)
+    return float(md.side(x, c, i).mean()) >= 0
+
+
+def convert(data: dict, path: Path, output: Path | None, name: str | None = None):
+    """The dcdc scene (:class:`~.common.Imported`) of the SPlisHSPlasH scene ``data``."""
+    from ...geometry import mesh as gm
+    from ..format import _emitter_points
+    im = _Import(path, output)
+    rd = im.rd
+    blocks, models = rd.items(data, "FluidBlocks"), rd.items(data, "FluidModels")
+    emitters_in, bodies = rd.items(data, "Emitters"), rd.items(data, "RigidBodies")
+    ids_used = {x.get("id", DEFAULT_ID) for x in blocks + models + emitters_in
+                if isinstance(x.get("id", DEFAULT_ID), str)}
+    for k in data:
+        if k not in SECTIONS | PBD_SECTIONS and k not in ids_used:
+            rd.fail("the scene:", f"unknown top-level key {k!r} (not a SPlisHSPlasH section dcdc "
+                    "knows, nor the id of a fluid)")
+    cfg = rd.table(data.get("Configuration", {}), "Configuration")
+    im.keys(cfg, "Configuration", CONFIG_KEYS | MATERIAL_KEYS, CONFIG_VIEWER | MATERIAL_VIEWER,
+            "Configuration")
+    r = rd.number(cfg, "particleRadius", "Configuration", 0.025, positive=True)
+    sp = 2 * r
+    stop_at = rd.number(cfg, "stopAt", "Configuration", None)
+    duration = stop_at if stop_at is not None and stop_at > 0 else 2.0
+    fps = rd.number(cfg, "dataExportFPS", "Configuration", None, positive=True)
+    solver = _solver(im, cfg)
+    particle_walls = solver.get("boundary") == "particles"
+
+    # materials -> phases: one per id that a fluid item names, defined or not (a material
+    # no fluid uses adds nothing to the scene)
+    mats = _materials(im, data, ids_used)
+    phases, names, caps = {}, {}, {}
+    for mid in [k for k in mats if k in ids_used] + sorted(ids_used - set(mats)):
+        where, m = mats.get(mid, (f"id {mid!r}", {}))
+        ph, cap = _phase(im, mid, where, m)
+        names[mid] = unique(scene_name(mid, "fluid"), phases)
+        phases[names[mid]] = ph
+        caps[mid] = cap
+
+    bounds, refs = [], []  # refs: points inside the fluid (which side of a wall it is on)
+    fluids = []
+    for i, b in enumerate(blocks):
+        where = f"FluidBlocks[{i}]"
+        im.keys(b, where, BLOCK_KEYS, {"visMesh"}, "fluid block")
+        mid = rd.string(b, "id", where, DEFAULT_ID)
+        a, e = rd.vec3(b, "start", where), rd.vec3(b, "end", where)
+        if a is None or e is None:
+            rd.fail(where, "needs 'start' and 'end'")
+        s = np.asarray(rd.vec3(b, "scale", where, [1.0, 1.0, 1.0], scalar_ok=True))
+        t = np.asarray(rd.vec3(b, "translation", where, [0.0, 0.0, 0.0]))
+        p0, p1 = np.asarray(a) * s + t, np.asarray(e) * s + t
+        lo, hi = np.minimum(p0, p1), np.maximum(p0, p1)
+        if not (hi > lo).all():
+            rd.fail(where, f"is empty (start {a}, end {e})")
+        dense = rd.integer(b, "denseMode", where, 0)
+        if dense:
+            im.warn(f"{where}: denseMode {dense} not mapped (dcdc samples every block on its lattice)")
+        if any(rd.vec3(b, "initialAngularVelocity", where, [0.0, 0.0, 0.0])):
+            im.warn(f"{where}: initialAngularVelocity not mapped (dcdc blocks start with one velocity)")
+        fluids.append({"phase": names[mid], "shape": "box", "min": lo.round(9).tolist(),
+                       "max": hi.round(9).tolist(),
+                       "velocity": rd.vec3(b, "initialVelocity", where, [0.0, 0.0, 0.0]), "name": where})
+        bounds.append((lo, hi))
+        refs.append(((lo + hi) / 2).tolist())
+    for i, f in enumerate(models):
+        where = f"FluidModels[{i}]"
+        im.keys(f, where, MODEL_KEYS, {"visMesh"}, "fluid model")
+        mid = rd.string(f, "id", where, DEFAULT_ID)
+        file = rd.string(f, "particleFile", where)
+        if file is None:
+            rd.fail(where, "needs a 'particleFile'")
+        if not file.lower().endswith(MESH_EXT):
+            im.warn(f"{where}: particle file {Path(file).name} not mapped (dcdc fills meshes: "
+                    f"{', '.join(MESH_EXT)}); left out")
+            continue
+        if rd.flag(f, "invert", where, False):
+            im.warn(f"{where}: invert (fluid outside the mesh, in its bounding box) not mapped; left out")
+            continue
+        p = im.file(file, where)
+        scale, t, axis, deg = im.placement(f, where)
+        m = gm.load_placed_mesh(p, scale, t, axis if deg else None, deg)
+        try:
+            gm.require_closed(m, "a fluid model is the inside of a closed mesh")
+        except DcdcError as e:
+            raise DcdcError(f"{path.name}: {where}: {e}") from None
+        if rd.integer(f, "denseMode", where, 0):
+            im.warn(f"{where}: denseMode {f['denseMode']} not mapped (dcdc fills meshes on its lattice)")
+        if any(rd.vec3(f, "initialAngularVelocity", where, [0.0, 0.0, 0.0])):
+            im.warn(f"{where}: initialAngularVelocity not mapped")
+        fluids.append({"phase": names[mid], "shape": "mesh", "file": toml_path(p, output),
+                       **_placed(scale, t, axis, deg),
+                       "velocity": rd.vec3(f, "initialVelocity", where, [0.0, 0.0, 0.0]), "name": where})
+        bounds.append(m.bounds)
+        refs.append(np.asarray(m.centroid).tolist())
+
+    emitters, emitted = [], {}
+    for i, e in enumerate(emitters_in):
+        where = f"Emitters[{i}]"
+        im.keys(e, where, EMITTER_KEYS, set(), "emitter")
+        mid = rd.string(e, "id", where, DEFAULT_ID)
+        kind = rd.integer(e, "type", where, 0)
+        if kind not in (0, 1):
+            rd.fail(f"{where}.type", f"must be 0 (box) or 1 (circle) (got {kind})")
+        wn = rd.integer(e, "width", where, 5)
+        hn = rd.integer(e, "height", where, 5)
+        if wn < 1 or (kind == 0 and hn < 1):
+            rd.fail(where, f"needs width (and height) >= 1 particle (got {wn} x {hn})")
+        pos = rd.vec3(e, "translation", where, [0.0, 0.0, 0.0])
+        _, _, axis, deg = im.placement({k: e[k] for k in ("rotationAxis", "rotationAngle") if k in e}, where)
+        d = gm.rotation_matrix(axis, deg)[:, 0] if deg else np.array([1.0, 0.0, 0.0])
+        vel = e.get("velocity", 1.0)
+        if isinstance(vel, list):  # older files: a velocity vector (and a direction)
+            v = np.asarray(rd.vec3(e, "velocity", where))
+            speed = float(np.linalg.norm(v))
+            d = v / speed if speed > 0 else d
+        else:
+            speed = rd.number(e, "velocity", where, 1.0)
+        if "direction" in e:
+            dd = np.asarray(rd.vec3(e, "direction", where))
+            if not np.linalg.norm(dd) > 0:
+                rd.fail(f"{where}.direction", "must be a non-zero vector")
+            d = dd / np.linalg.norm(dd)
+        if not speed > 0:
+            rd.fail(f"{where}.velocity", f"must be > 0 (got {speed:g}): dcdc emitters push fluid out")
+        if kind == 1:
+            radius = wn * r  # SPlisHSPlasH: radius 0.5 · width · 2r
+            g = (np.arange(wn) - 0.5 * (wn - 1)) * sp
+            per_layer = int((g[:, None] ** 2 + g[None, :] ** 2 <= radius ** 2 + 1e-12).sum())
+        else:
+            radius = math.sqrt(wn * hn / math.pi) * sp
+            per_layer = wn * hn
+            im.warn(f"{where}: a {wn} x {hn} particle box nozzle is emitted through a round nozzle "
+                    f"of the same area (radius {radius:.4g} m)")
+        start = rd.number(e, "emitStartTime", where, 0.0, nonneg=True)
+        end = rd.number(e, "emitEndTime", where, None)
+        stop = min(end, duration) if end is not None else duration
+        if stop <= start:
+            im.warn(f"{where}: emits only after the run ({start:g} s, duration {duration:g} s); left out")
+            continue
+        em = {"phase": names[mid], "position": pos, "direction": d.round(12).tolist(),
+              "speed": speed, "radius": round(radius, 9), "start": start, "stop": round(stop, 9)}
+        eps = rd.number(e, "emitsPerSecond", where, None, positive=True)
+        if eps is not None:
+            em["rate"] = per_layer * eps
+        if caps.get(mid) is not None:  # maxEmitterParticles: the phase's emitters share it
+            _, _, births = _emitter_points({**em, "rate": em.get("rate")}, 3, sp)
+            left = caps[mid] - emitted.get(mid, 0)
+            if left < len(births):
+                layers = np.unique(births)  # more than one: a single layer fits or is refused
+                n_layer = len(births) // len(layers)
+                k = left // n_layer
+                if k == 0:
+                    im.warn(f"{where}: its material's maxEmitterParticles ({caps[mid]}) is used up; left out")
+                    continue
+                em["stop"] = round(float(layers[k - 1] + 0.5 * (layers[1] - layers[0])), 9)
+                births = births[:k * n_layer]
+            emitted[mid] = emitted.get(mid, 0) + len(births)
+        emitters.append(em)
+        bounds.append((np.asarray(pos) - radius, np.asarray(pos) + radius))
+        refs.append(pos)
+
+    walls = {}
+    for i, b in enumerate(bodies):
+        where = f"RigidBodies[{i}]"
+        im.keys(b, where, BODY_KEYS, BODY_VIEWER, "rigid body")
+        file = rd.string(b, "geometryFile", where)
+        if file is None:
+            im.warn(f"{where}: no geometryFile (particle samplings of walls are not read); left out")
+            continue
+        p = im.file(file, where)
+        scale, t, axis, deg = im.placement(b, where)
+        m = gm.load_placed_mesh(p, scale, t, axis if deg else None, deg)
+        label = f"{where} ({p.name})"
+        if rd.flag(b, "isDynamic", where, False):
+            im.warn(f"{label}: a dynamic rigid body, imported as a static wall")
+        entry = {"shape": "mesh", "file": toml_path(p, output), **_placed(scale, t, axis, deg)}
+        thick = rd.number(b, "mapThickness", where, 0.0, nonneg=True)
+        if m.metadata["dcdc_closed"]:
+            if "mapInvert" in b and not particle_walls:
+                entry["hollow"] = rd.flag(b, "mapInvert", where)
+            else:  # particle boundaries have no side: the fluid's side is the inside
+                entry["hollow"] = _inside_any(m, refs)
+            if thick:
+                im.warn(f"{label}: mapThickness {thick:g} not mapped (dcdc's walls are "
+                        "wall_thickness deep)")
+        else:
+            entry["thickness"] = max(4 * r, thick)
+            entry["invert_normals"] = not _front_side(m, refs)  # the shell away from the fluid
+        walls[unique(scene_name(p.stem, "wall"), walls)] = entry
+        bounds.append(m.bounds)
+
+    for i, f in enumerate(rd.items(data, "AnimationFields")):
+        im.keys(f, f"AnimationFields[{i}]", FIELD_KEYS, set(), "animation field")
+        im.warn(f"AnimationFields[{i}] ({f.get('particleField', 'velocity')}): animation fields are "
+                "not mapped")
+    if "Simulation" in data:
+        im.warn("Simulation: PositionBasedDynamics settings (dynamic bodies) not mapped")
+    for k in sorted(set(data) & PBD_SECTIONS):
+        im.warn(f"{k}: PositionBasedDynamics models and joints are not mapped")
+    if im.viewer:
+        im.warnings.append("viewer and export settings not used: " + ", ".join(im.viewer))
+    if not bounds:
+        raise DcdcError(f"{path.name}: the scene has no fluid blocks, fluid models, emitters or "
+                        "rigid bodies")
+    scene = {
+        "name": scene_name(name or path.stem),
+        "description": f"imported from the SPlisHSPlasH scene {path.name}",
+        "dim": 3, "radius": r, "duration": duration,
+    }
+    if fps is not None:
+        scene["frame_dt"] = round(1.0 / fps, 9)
+    g = rd.vec3(cfg, "gravitation", "Configuration", None)
+    if g is not None:
+        scene["gravity"] = g
+    scene.update(domain=domain(bounds), phases=phases)
+    if walls:
+        scene["walls"] = walls
+    if fluids:
+        scene["fluid"] = fluids
+    if emitters:
+        scene["emitter"] = emitters
+    if solver:
+        scene["solver"] = solver
+    notes = [f"duration {duration:g} s" + (" (Configuration.stopAt)" if stop_at and stop_at > 0
+                                           else " (the scene sets no stopAt)")]
+    return finish(scene, im.warnings, FMT, path, output, notes)

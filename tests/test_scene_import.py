@@ -1,0 +1,225 @@
+"""``dcdc scene import``: DeepLagrangianFluids and SPlisHSPlasH scene JSON as dcdc scenes —
+what maps, one warning per unmappable item, one-line errors for bad input, and imported
+scenes that run in dcdc's SPH solver as written (tiny resolution, a few frames)."""
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dcdc.errors import DcdcError
+from dcdc.scene import load
+from dcdc.scene.importers import import_scene
+from helpers import dcdc_output
+
+DATA = Path(__file__).resolve().parent / "data"
+SCENES, MODELS = DATA / "scenes", DATA / "models"
+DLF = next((p for p in (Path(__file__).resolve().parents[2] / "shared/anchors/dlf",
+                        Path("/work/shared/anchors/dlf")) if p.is_dir()), None)
+needs_dlf = pytest.mark.skipif(DLF is None, reason="DLF anchor scene not present")
+
+
+def imported(src: Path, tmp_path: Path, name="scene.toml"):
+    """Import ``src`` to tmp_path/name; (result, loaded scene)."""
+    out = tmp_path / name
+    res = import_scene(src, out)
+    out.write_text(res.text)
+    return res, load(out)
+
+
+def run_sph(scene, resolution=1.0, duration=0.1):
+    """A short SPH run of the scene; the final system."""
+    from dcdc.sph import Simulator
+    system = scene.realize(resolution=resolution)
+    sim = Simulator(system, scene.check_solver())
+    sim.run(duration, scene.frame_dt)
+    x = sim.system.x
+    lo, hi = system.domain
+    assert np.isfinite(x).all() and ((x >= lo) & (x <= hi)).all()
+    return sim.system
+
+
+# ------------------------------------------------------------------ DeepLagrangianFluids
+@needs_dlf
+def test_dlf_example_imports_and_runs(tmp_path):
+    """Their example scene: Box.obj becomes a mesh container, Fluid.obj a mesh block with
+    the same 8 000 particles as dcdc.model.dlf.scene_system; the scene runs in SPH."""
+    from dcdc.model.dlf import scene_system
+    res, sc = imported(DLF / "example_scene.json", tmp_path)
+    assert res.format == "DeepLagrangianFluids" and res.warnings == []
+    assert sc.data["walls"]["Box"]["hollow"] is True
+    f = sc.data["fluid"][0]
+    assert f["shape"] == "mesh" and f["translate"] == [0, 1, 0] and f["velocity"] == [0.3, 0, 0.2]
+    full = sc.realize()
+    ref = scene_system(DLF / "example_scene.json")
+    assert full.n_fluid == ref.n_fluid == 8000
+    key = (lambda x: x[np.lexsort(np.round(x, 9).T[::-1])])
+    assert np.allclose(key(full.x), key(ref.x))
+    small = run_sph(sc, resolution=0.3)  # 216 fluid particles, 5 frames
+    assert small.n_fluid == 216
+
+
+def test_dlf_emitter_and_open_wall(tmp_path):
+    """A fluid released at frames 0, 10, 20 is a mesh emitter (0, 0.2, 0.4 s); an open wall
+    whose normals face the fluid (invert_normals) is a shell behind its faces."""
+    res, sc = imported(SCENES / "dlf_emitter.json", tmp_path)
+    w = sc.data["walls"]
+    assert w["UnitBox"]["hollow"] is True
+    assert w["Sheet"]["thickness"] == pytest.approx(0.1) and w["Sheet"]["invert_normals"] is False
+    e = sc.data["emitter"][0]
+    assert (e["shape"], e["start"], e["interval"], e["stop"]) == ("mesh", 0.0, 0.2, 0.6)
+    assert not sc.data["fluid"]
+    s = sc.realize()
+    births, counts = np.unique(s.birth, return_counts=True)
+    assert np.allclose(births, [0.0, 0.2, 0.4]) and (counts == 64).all()
+    inner = s.wall_x[(np.abs(s.wall_x[:, 0]) < 0.4) & (np.abs(s.wall_x[:, 2]) < 0.4)
+                     & (s.wall_x[:, 1] > 0.1) & (s.wall_x[:, 1] < 0.9)]  # the sheet's shell, away from the tank
+    assert len(inner) and (inner[:, 1] >= 0.2 - 1e-9).all() and (inner[:, 1] <= 0.3 + 1e-9).all()
+    run_sph(sc)
+
+
+# ------------------------------------------------------------------ SPlisHSPlasH
+def test_splishsplash_multiphase_imports_and_runs(tmp_path):
+    """Three materials → three phases; container, rotated obstacle, blocks, a mesh fluid
+    model and a round emitter pointing down; one warning per unmappable item; it runs."""
+    res, sc = imported(SCENES / "splash_multiphase.json", tmp_path)
+    assert res.format == "SPlisHSPlasH"
+    d = sc.data
+    assert {k: p["density"] for k, p in d["phases"].items()} == {"heavy": 2000, "light": 1000, "oil": 700}
+    assert d["phases"]["heavy"]["viscosity"] == 0.01 and d["phases"]["light"]["viscosity"] == 1e-6
+    box, rock = d["walls"]["UnitBox"], d["walls"]["SmallCube"]
+    assert box["hollow"] is True and box["scale"] == [0.5, 0.4, 0.3]
+    assert rock["hollow"] is False and rock["rotation_degrees"] == pytest.approx(45)
+    assert [f["shape"] for f in d["fluid"]] == ["box", "box", "mesh"]
+    assert d["fluid"][1]["velocity"] == [-0.2, 0, 0]
+    em = d["emitter"][0]
+    assert np.allclose(em["direction"], [0, -1, 0]) and em["radius"] == pytest.approx(0.05)
+    assert (em["start"], em["stop"], d["duration"]) == (0.0, 0.1, 0.1)
+    assert d["solver"] == {"cfl": 0.4, "dt_max": 0.005, "max_iterations": 100,
+                           "density_tolerance": 0.0005, "divergence_tolerance": 0.001,
+                           "divergence_solve": True}
+    text = "\n".join(res.warnings)
+    for what in ("XSPH viscosity", "surface tension (method 2", "dynamic rigid body",
+                 "AnimationFields[0]", "viewer and export settings not used: Configuration.pause"):
+        assert what in text
+    assert len(res.warnings) == 5 and "unused" not in text
+    assert all(f"# warning: {w}" in res.text for w in res.warnings)
+    s = sc.realize()
+    assert s.counts_per_phase() == {"heavy": 54, "light": 54 + 10, "oil": 16}  # 3·3·6, 2·2·4
+    assert (s.birth > 0).sum() == 5  # the emitter's second layer
+    run_sph(sc)
+    assert sc.realize(dim=2).n_fluid > 0  # its z = 0 section too
+
+
+def test_splishsplash_other_mappings(tmp_path):
+    """Particle boundaries without mapInvert: the container side from the fluid; WCSPH;
+    a particle-file fluid model and a box nozzle are reported; maxEmitterParticles caps."""
+    models = tmp_path / "models"
+    shutil.copytree(MODELS, models)
+    scene = {
+        "Configuration": {"simulationMethod": 0, "exponent": 7, "stiffness": 1000,
+                          "boundaryHandlingMethod": 0, "cflFactor": 3, "maxIterationsV": 50,
+                          "density0": 1200, "particleRadius": 0.025},
+        "RigidBodies": [{"geometryFile": "models/UnitBox.obj", "scale": 1, "translation": [0, 0.5, 0]}],
+        "FluidBlocks": [{"start": [-0.5, 0, -0.5], "end": [0, 0.2, 0.5]}],
+        "FluidModels": [{"particleFile": "models/bunny.bgeo"}],
+        "Emitters": [{"width": 3, "height": 2, "translation": [0.2, 0.5, 0], "velocity": 1,
+                      "rotationAxis": [0, 0, 1], "rotationAngle": 3.141592653589793}],
+        "Fluid": {"maxEmitterParticles": 20, "viscosity": 0.001, "viscosityMethod": 7},
+    }
+    src = tmp_path / "other.json"
+    src.write_text(json.dumps(scene))
+    res, sc = imported(src, tmp_path)
+    d = sc.data
+    assert d["walls"]["UnitBox"]["hollow"] is True
+    assert d["solver"]["solver"] == "wcsph" and d["solver"]["boundary"] == "particles"
+    assert d["solver"]["stiffness_exponent"] == 7 and d["solver"]["cfl"] == 1.0
+    assert d["phases"] == {"Fluid": {"density": 1200, "viscosity": 0.001,
+                                     "color": d["phases"]["Fluid"]["color"]}}
+    em = d["emitter"][0]
+    assert np.allclose(em["direction"], [-1, 0, 0]) and em["stop"] < 2.0
+    text = "\n".join(res.warnings)
+    for what in ("Configuration.stiffness", "cflFactor 3", "maxIterationsV 50", "bunny.bgeo",
+                 "3 x 2 particle box nozzle", "viscosity method 7"):
+        assert what in text
+    s = sc.realize()
+    assert s.n_fluid == 10 * 4 * 20 + 20  # the block; 4 layers of 5 (maxEmitterParticles)
+    assert np.allclose(np.unique(s.birth), [0.0, 0.05, 0.1, 0.15])
+
+
+@pytest.mark.skipif(not __import__("importlib").util.find_spec("pysplishsplash"),
+                    reason="pysplishsplash is not installed")
+def test_shipped_splishsplash_multiphase_scenes(tmp_path):
+    import pysplishsplash
+    root = Path(pysplishsplash.__file__).parent
+    scenes = sorted(p for p in root.rglob("*.json") if "MultiPhase" in p.name or "TwoPhase" in p.name)
+    if not scenes:
+        pytest.skip("no multiphase scenes shipped with pysplishsplash")
+    for p in scenes:
+        res, sc = imported(p, tmp_path, p.stem + ".toml")
+        assert sc.realize(resolution=0.3).n_fluid > 0
+
+
+# ------------------------------------------------------------------ command line, errors
+def test_cli_writes_toml_and_one_warning_line_per_item(tmp_path, capsys):
+    out = tmp_path / "s.toml"
+    code, stdout, err = dcdc_output(["scene", "import", SCENES / "splash_multiphase.json", "-o", out],
+                                    capsys)
+    assert code == 0 and out.exists()
+    lines = err.strip().splitlines()
+    assert sum(ln.startswith("warning: ") for ln in lines) == 5
+    assert lines[-1].startswith(f"wrote {out} (SPlisHSPlasH scene: 2 wall(s), 3 fluid block(s), 1 emitter")
+    assert "../models/UnitBox.obj" not in out.read_text()  # two levels up: absolute
+    code, _, err = dcdc_output(["scene", "import", SCENES / "splash_multiphase.json", "-o", out], capsys)
+    assert code == 2 and "exists (use --overwrite" in err
+    code, stdout, _ = dcdc_output(["scene", "import", SCENES / "dlf_emitter.json"], capsys)
+    assert code == 0 and str(MODELS / "UnitBox.obj") in stdout
+
+
+def _bad(tmp_path, name, content):
+    p = tmp_path / name
+    p.write_text(content if isinstance(content, str) else json.dumps(content))
+    return p
+
+
+BOX = str(MODELS / "UnitBox.obj")
+CUBE = str(MODELS / "SmallCube.obj")
+SHEET = str(MODELS / "Sheet.obj")
+DLF_OK = {"walls": [{"path": BOX}], "fluids": [{"path": CUBE, "translation": [0, 0.1, 0]}]}
+
+
+@pytest.mark.parametrize("content, match", [
+    ("{not json", r"not valid JSON \(Expecting property name"),
+    ({"objects": []}, r"neither a DeepLagrangianFluids scene .* nor a SPlisHSPlasH scene"),
+    ([1, 2], r"neither a DeepLagrangianFluids scene"),
+    ({**DLF_OK, "camera": 1}, r"the scene: unknown key 'camera'"),
+    ({"walls": [{"paht": BOX}], "fluids": DLF_OK["fluids"]}, r"walls\[0\]: unknown key 'paht'"),
+    ({"walls": [{"path": "nope.obj"}], "fluids": DLF_OK["fluids"]}, r"mesh nope.obj of the scene not found"),
+    ({"walls": DLF_OK["walls"], "fluids": [{"path": SHEET}]}, r"fluids\[0\]: mesh .*Sheet.obj is not a closed"),
+    ({"walls": DLF_OK["walls"], "fluids": [{"path": CUBE, "step": 0}]}, r"fluids\[0\]\.step must be >= 1"),
+    ({"walls": DLF_OK["walls"], "fluids": [{"path": CUBE, "velocity": [1, 2]}]},
+     r"fluids\[0\]\.velocity must be a list of 3 numbers"),
+    ({"FluidBlocks": [{"start": [0, 0, 0], "end": [1, 1, 1]}], "Cameras": {}},
+     r"unknown top-level key 'Cameras'"),
+    ({"RigidBodies": [{"geometryFile": BOX, "mapInvrt": True}]}, r"RigidBodies\[0\]: unknown key 'mapInvrt'"),
+    ({"RigidBodies": [{"geometryFile": "missing.obj"}]}, r"RigidBodies\[0\]: mesh file .*missing.obj not found"),
+    ({"FluidBlocks": [{"start": "origin", "end": [1, 1, 1]}]}, r"FluidBlocks\[0\]\.start must be a list of 3"),
+    ({"FluidModels": [{"particleFile": SHEET}]}, r"FluidModels\[0\]: mesh .*Sheet.obj is not a closed surface"),
+    ({"Configuration": {"maxError": 0}, "FluidBlocks": [{"start": [0, 0, 0], "end": [1, 1, 1]}]},
+     r"Configuration\.maxError must be > 0"),
+    ({"Materials": [{"id": "Fluid", "density0": -1}], "FluidBlocks": [{"start": [0, 0, 0], "end": [1, 1, 1]}]},
+     r"Materials\[0\]\.density0 must be > 0"),
+])
+def test_bad_input_is_one_line_error(tmp_path, capsys, content, match):
+    src = _bad(tmp_path, "bad.json", content)
+    with pytest.raises(DcdcError, match=match):
+        import_scene(src, tmp_path / "out.toml")
+    code, out, err = dcdc_output(["scene", "import", src, "-o", tmp_path / "out.toml"], capsys)
+    assert code == 2 and err.startswith("error: bad.json: ") and err.count("\n") == 1
+    assert "Traceback" not in err and not (tmp_path / "out.toml").exists()
+
+
+def test_missing_json_file(tmp_path, capsys):
+    code, _, err = dcdc_output(["scene", "import", tmp_path / "none.json"], capsys)
+    assert code == 2 and err.startswith("error: ") and "no such file" in err
