@@ -34,7 +34,7 @@ BENCHMARKS = {
     "model": "dcdc.model.benchmark:model_command",
     "train": "dcdc.train.benchmark:train_benchmark_command",
     "render": "dcdc.render.benchmark:benchmark_command",
-    "geometry": "dcdc.geometry.benchmark:benchmark_command",
+    "geometry": "dcdc.scene.benchmark:benchmark_command",
     "table1": "dcdc.evaluate.table1:table1_command",
 }
 

@@ -290,7 +290,7 @@ def test_shell_fields_are_checked(tmp_path, fields, message):
 
 # ------------------------------------------------------------------ benchmark
 def test_benchmark_meshes_are_closed_and_sized():
-    from dcdc.geometry.benchmark import subdivided_box, torus_knot
+    from dcdc.scene.benchmark import subdivided_box, torus_knot
     k = torus_knot(segments=100, sides=12)
     assert k.is_watertight and k.volume > 0 and len(k.faces) == 2400
     assert len(subdivided_box(2).faces) == 12 * 16
@@ -319,7 +319,7 @@ def test_splishsplash_dragon_is_closed_and_fast_when_installed(tmp_path):
     dragon = Path(sys.prefix) / "bin" / "data" / "models" / "Dragon_50k.obj"
     if not dragon.is_file():
         pytest.skip("pysplishsplash installed without its data/models")
-    from dcdc.geometry.benchmark import run_case
+    from dcdc.scene.benchmark import run_case
     m = gm.load_mesh(dragon)
     assert m.metadata["dcdc_closed"] and m.volume > 0
     r = run_case("dragon", trimesh.load(str(dragon), force="mesh"), False, tmp_path)

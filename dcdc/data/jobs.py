@@ -5,7 +5,6 @@ of :mod:`.pool` (so neither imports the other)."""
 from __future__ import annotations
 
 import json
-import math
 import os
 import socket
 import subprocess
@@ -18,6 +17,7 @@ import numpy as np
 
 from ..errors import DcdcError, SimulationDiverged
 from ..outputs import TMP_MARK, write_text
+from ..scene.budget import check_duration
 from . import interrupt
 from .dataset import write_trajectory
 
@@ -162,17 +162,6 @@ def parse_shard(shard: str | None) -> tuple[int, int]:
 
 
 # ------------------------------------------------------------------ one trajectory
-def check_duration(duration: float | None, frame_dt: float = 0.02, what: str = "--duration") -> None:
-    """A run must cover at least one frame: a finite duration >= frame_dt."""
-    if duration is None:
-        return
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise DcdcError(f"{what} must be a finite positive number of seconds (got {duration})")
-    if int(round(duration / frame_dt)) < 1:
-        raise DcdcError(f"{what} {duration:g} s is shorter than one frame ({frame_dt:g} s): "
-                        "nothing would be simulated")
-
-
 def check_emitters(scene, duration: float, source: str, override: bool = False) -> None:
     """An emitter that starts when the run is already over stores particles that are never
     born: an error in the scene itself, a warning when ``--duration`` (``override``) cuts

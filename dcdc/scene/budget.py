@@ -119,3 +119,14 @@ def check(s: dict, source: str, frames: int | None = None,
         raise DcdcError(f"{what}, more than this machine's {_gib(mem)}: "
                         "check radius, resolution, emitter rates and duration")
     return est
+
+
+def check_duration(duration: float | None, frame_dt: float = 0.02, what: str = "--duration") -> None:
+    """A run must cover at least one frame: a finite duration >= frame_dt."""
+    if duration is None:
+        return
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise DcdcError(f"{what} must be a finite positive number of seconds (got {duration})")
+    if int(round(duration / frame_dt)) < 1:
+        raise DcdcError(f"{what} {duration:g} s is shorter than one frame ({frame_dt:g} s): "
+                        "nothing would be simulated")

@@ -91,7 +91,7 @@ def copy_command(name, output, overwrite):
 @click.option("--overwrite", is_flag=True, help="Replace existing --output / --image files.")
 def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, output, image, overwrite):
     """A random training scene, reproducible from --seed."""
-    from ..data.jobs import check_duration
+    from .budget import check_duration
     from .random import RandomSceneConfig, random_scene_text
     for path in (output, image):
         if path:

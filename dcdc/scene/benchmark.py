@@ -110,7 +110,7 @@ max = {v(fluid_hi)}
 def run_case(name: str, mesh, hollow: bool, tmp: Path, volume_map: bool = False) -> dict:
     """Realise the benchmark scene around ``mesh``; seconds and counts (and, with
     ``volume_map``, the seconds of the SPH solver's volume map of its walls)."""
-    from ..scene import load
+    from . import load
     obj = tmp / (name.replace(" ", "_") + ".obj")
     mesh.export(obj)
     mlo, mhi = np.asarray(mesh.bounds[0]), np.asarray(mesh.bounds[1])
