@@ -10,6 +10,7 @@ from dcdc.cli import main
 from dcdc.errors import DcdcError
 from dcdc.evaluate.rollout import Guard, NeuralSimulator, run
 from dcdc.model import dlf
+from dcdc.scene.importers.dlf import scene_system
 from dcdc.model.cconv import build_geometry, cconv
 from dcdc.model.checkpoint import load_checkpoint
 from dcdc.model.integrator import step
@@ -136,7 +137,7 @@ def small_scene(tmp_path):
 
 
 def test_scene_system_samples_their_scene(small_scene):
-    sy = dlf.scene_system(small_scene, frames=100)
+    sy = scene_system(small_scene, frames=100)
     assert sy.dim == 3 and sy.n_fluid == 2 * 6 ** 3  # emitted at steps 0 and 30
     assert sorted(set(np.round(sy.birth, 6))) == [0.0, 0.6]
     assert np.allclose(sy.v, [0.3, 0, 0.2])
@@ -151,7 +152,7 @@ def test_scene_system_samples_their_scene(small_scene):
     bad = small_scene.with_name("bad.json")
     bad.write_text(small_scene.read_text().replace("fluid.obj", "gone.obj"))
     with pytest.raises(DcdcError, match="gone.obj of the scene not found"):
-        dlf.scene_system(bad)
+        scene_system(bad)
 
 
 @needs_weights
@@ -159,7 +160,7 @@ def test_pretrained_network_keeps_the_fluid_in_a_box(small_scene):
     """A short version of the 500-step example-scene check of docs/evaluation.md: the
     published weights, converted, hold two emitted fluid cubes in a closed box."""
     net = dlf.convert(dlf.read_weights(WEIGHTS))
-    sy = dlf.scene_system(small_scene, frames=60)
+    sy = scene_system(small_scene, frames=60)
     ro = run(NeuralSimulator(net, sy, guard=Guard(max_in_walls=0.0)), 60)
     assert ro.stopped is None and ro.steps == 60 and ro.in_walls.max() == 0
     x = ro.position[-1]

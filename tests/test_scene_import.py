@@ -44,8 +44,8 @@ def run_sph(scene, resolution=1.0, duration=0.1):
 @needs_dlf
 def test_dlf_example_imports_and_runs(tmp_path):
     """Their example scene: Box.obj becomes a mesh container, Fluid.obj a mesh block with
-    the same 8 000 particles as dcdc.model.dlf.scene_system; the scene runs in SPH."""
-    from dcdc.model.dlf import scene_system
+    the same 8 000 particles as dcdc.scene.importers.dlf.scene_system; the scene runs in SPH."""
+    from dcdc.scene.importers.dlf import scene_system
     res, sc = imported(DLF / "example_scene.json", tmp_path)
     assert res.format == "DeepLagrangianFluids" and res.warnings == []
     assert sc.data["walls"]["Box"]["hollow"] is True

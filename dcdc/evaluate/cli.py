@@ -17,7 +17,7 @@ def _start_from_scene(scene: str, dim, resolution: float, model, steps, max_part
     from ..model.checkpoint import check_compatible
 
     if scene.endswith(".json"):
-        from ..model.dlf import scene_system
+        from ..scene.importers.dlf import scene_system
         if dim is not None and int(dim) != 3:
             raise DcdcError("a DeepLagrangianFluids scene (.json) is 3-D; drop --dim")
         n = steps or 250  # run_network.py's default

@@ -149,7 +149,7 @@ def unique(name: str, taken) -> str:
 def domain(bounds: list, dim: int = 3) -> dict:
     """The scene domain: the box around ``bounds`` ([(lo, hi), ...] of walls, fluid and
     nozzles) grown by :data:`DOMAIN_PAD` of its size per axis (as
-    :func:`dcdc.model.dlf.scene_system`)."""
+    :func:`dcdc.scene.importers.dlf.scene_system`)."""
     lo = np.min([np.asarray(b[0], float)[:dim] for b in bounds], axis=0)
     hi = np.max([np.asarray(b[1], float)[:dim] for b in bounds], axis=0)
     pad = DOMAIN_PAD * np.maximum(hi - lo, 1e-6)
