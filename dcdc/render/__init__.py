@@ -6,8 +6,8 @@
 * :mod:`.export`: PLY / VTK / VTU + PVD files for Blender and ParaView (``dcdc export``);
 * :mod:`.view`: one self-contained WebGL HTML page (``dcdc view``);
 * :mod:`.figures`: animations, strips and comparisons (also :func:`snapshot_strip` and
-  :func:`animate` for Python callers such as ``dcdc demo``);
-* :mod:`.sideview`: matplotlib side views used by ``dcdc scene show``.
+  :func:`animate` for Python callers such as ``dcdc demo``).
+
+The side views of ``dcdc scene show`` are :mod:`dcdc.scene.draw`'s.
 """
 from .figures import animate, snapshot_strip  # noqa: F401
-from .sideview import side_view  # noqa: F401
