@@ -74,3 +74,30 @@ def test_walls_sampled_from_union_have_inward_normals():
     assert ball.any()
     radial = (x[ball] - [0.5, 0.3]) / np.linalg.norm(x[ball] - [0.5, 0.3], axis=1, keepdims=True)
     assert ((n[ball] * radial).sum(1) > 0.9).all()
+
+
+def test_no_wall_particles_buried_where_solids_overlap():
+    # a block sunk into the floor of a tank: min() of the two distance functions makes the
+    # floor under the block look shallow; with the fluid box, only particles that a fluid
+    # lattice point can see (within thickness + spacing·√2) stay
+    from scipy.spatial import cKDTree
+
+    s, t, anchor = 0.05, 0.1, [0.025, 0.025]
+    tank = sh.container([0.0, 0.0], [1.0, 1.0], open_top=False)
+    block = sh.box([0.3, -0.1], [0.7, 0.3])
+    union = lambda q: np.minimum(tank(q), block(q))  # noqa: E731
+    lo, hi = [-0.15, -0.15], [1.15, 1.15]
+    x_all, _ = sample_walls(union, lo, hi, s, t, anchor)
+    x, n = sample_walls(union, lo, hi, s, t, anchor, fluid_box=([0, 0], [1, 1]))
+    g = lattice([0, 0], [1, 1], s / 4)
+    d, _ = cKDTree(g[union(g) > 0]).query(x_all)  # true distance to the fluid space
+    assert len(x) < len(x_all)
+    kept = {tuple(p) for p in np.round(x, 6)}
+    dropped = np.array([tuple(p) not in kept for p in np.round(x_all, 6)])
+    assert d[dropped].min() > t  # only particles deeper than the shell go
+    d_kept, _ = cKDTree(g[union(g) > 0]).query(x)
+    assert (d_kept <= t + s * np.sqrt(2) + 1e-9).all()
+    # without overlaps nothing changes
+    a, _ = sample_walls(tank, lo, hi, s, t, anchor)
+    b, _ = sample_walls(tank, lo, hi, s, t, anchor, fluid_box=([0, 0], [1, 1]))
+    assert np.array_equal(a, b)

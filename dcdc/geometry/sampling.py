@@ -51,14 +51,37 @@ def sdf_normals(sdf: SDF, x: np.ndarray, h: float) -> np.ndarray:
     return g / np.maximum(norm, 1e-12)
 
 
-def sample_walls(sdf: SDF, lo, hi, spacing: float, thickness: float, anchor=None):
+def sample_walls(sdf: SDF, lo, hi, spacing: float, thickness: float, anchor=None,
+                 fluid_box=None):
     """Wall particles: lattice points in [lo, hi] with ``-thickness <= sdf <= 0`` (a shell of
     the solid next to its surface), and their normals ∇sdf (pointing into the fluid).
+
+    ``fluid_box`` = (lo, hi), where fluid may be (the scene's domain): a shell point is kept
+    only if a lattice point of the fluid space (sdf > 0 inside that box) lies within
+    ``thickness + spacing·√d`` of it (:func:`reachable`). Where solids overlap, the union's
+    ``min`` of their distance functions underestimates the depth, and the shell would reach
+    points buried deep inside the union that no fluid particle can see.
 
     Returns (positions [M, d], normals [M, d]).
     """
     pts = lattice(lo, hi, spacing, anchor)
     s = sdf(pts)
     keep = (s <= 1e-9) & (s >= -thickness - 1e-9)
+    if fluid_box is not None and keep.any():
+        f_lo, f_hi = (np.asarray(b, dtype=np.float64) for b in fluid_box)
+        near = (s > 1e-9) & (s <= thickness + 2 * spacing) & \
+            ((pts >= f_lo) & (pts <= f_hi)).all(1)
+        idx = np.flatnonzero(keep)
+        keep[idx[~reachable(pts[idx], pts[near], thickness + spacing * np.sqrt(pts.shape[1]))]] = False
     pts = pts[keep]
     return pts, sdf_normals(sdf, pts, 0.25 * spacing)
+
+
+def reachable(points: np.ndarray, free: np.ndarray, reach: float) -> np.ndarray:
+    """Mask of ``points`` within ``reach`` of some point of ``free`` (a k-d tree query)."""
+    if not len(free):
+        return np.zeros(len(points), dtype=bool)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(free).query(points, distance_upper_bound=reach * (1 + 1e-9))
+    return np.isfinite(d)

@@ -766,7 +766,8 @@ class Scene:
         union = _union(solids)
         if solids:
             pad = thickness + spacing
-            wx, wn = sample_walls(union, lo - pad, hi + pad, spacing, thickness, anchor)
+            wx, wn = sample_walls(union, lo - pad, hi + pad, spacing, thickness, anchor,
+                                  fluid_box=(lo, hi))
             _check_mesh_walls(solids, wx, str(self.path.name) if self.path else self.name,
                               lo, hi, spacing, thickness)
         else:
