@@ -145,7 +145,7 @@ COLUMNS = [  # (heading, key, format) of the stdout table
     ("KE err", "ke_error", "{:.3f}"), ("COM err", "com_height_error", "{:.3f}"),
     ("order", "order_ok", "{}"), ("purity", "purity", "{:.3f}"),
     ("vol err", "volume_error", "{:.4f}"), ("mom m/s", "momentum_error", "{:.3f}"),
-    ("in walls", "in_walls_max", "{}"), ("contacts/step", "contacts_per_step", "{:.1f}"),
+    ("in walls", "in_walls_max", "{:.0f}"), ("contacts/step", "contacts_per_step", "{:.1f}"),
     ("steps", "steps", "{}"), ("ms/step", "ms_per_step", "{:.1f}"),
 ]
 
