@@ -254,8 +254,12 @@ def sinkhorn_distance(a, b, blur: float = 0.05, max_points: int = 1000, seed: in
         wp, wq = np.full(len(p), 1.0 / len(p)), np.full(len(q), 1.0 / len(q))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # non-convergence warnings; stopThr is loose
-            return float(ot.sinkhorn2(wp, wq, M, reg, method="sinkhorn_stabilized",
-                                      numItermax=n_iter, stopThr=1e-7))
+            v = float(ot.sinkhorn2(wp, wq, M, reg, method="sinkhorn_stabilized",
+                                   numItermax=n_iter, stopThr=1e-7))
+            if not np.isfinite(v):  # its absorption overflowed (costs ≫ reg): log domain
+                v = float(ot.sinkhorn2(wp, wq, M, reg, method="sinkhorn_log",
+                                       numItermax=n_iter, stopThr=1e-7))
+            return v
 
     s = cost(a, b) - 0.5 * cost(a, a) - 0.5 * cost(b, b)
     return float(np.sqrt(max(s, 0.0)))
