@@ -166,10 +166,11 @@ def test_shipped_models_load_by_name_and_match_their_card():
     from dcdc.model.checkpoint import load_checkpoint, shipped_models
 
     shipped = shipped_models()
-    assert {"cconv2d", "dcdc2d"} <= set(shipped)
-    for name in ("dcdc2d", "cconv2d"):
+    networks = {"dcdc2d": "dcdc", "cconv2d": "cconv", "antisym2d": "dcdc-antisym"}
+    assert set(networks) <= set(shipped)
+    for name, network in networks.items():
         net, ck = load_checkpoint(name)
-        assert net.name == name[:-2] and net.dim == 2
+        assert net.name == network and net.dim == 2
         assert ck["extra"]["step"] == ck["extra"]["train_config"]["optim"]["steps"]
         assert abs(net.cfg.particle_radius - 0.025) < 1e-12 and abs(net.cfg.frame_dt - 0.02) < 1e-12
     with pytest.raises(DcdcError, match="shipped models: .*dcdc2d"):
