@@ -114,7 +114,8 @@ def test_splishsplash_multiphase_imports_and_runs(tmp_path):
 
 def test_splishsplash_other_mappings(tmp_path):
     """Particle boundaries without mapInvert: the container side from the fluid; WCSPH;
-    a particle-file fluid model and a box nozzle are reported; maxEmitterParticles caps."""
+    a particle-file fluid model is reported; a 3 x 2 box emitter is a box nozzle of 3 x 2
+    particles; maxEmitterParticles caps it at whole layers."""
     models = tmp_path / "models"
     shutil.copytree(MODELS, models)
     scene = {
@@ -139,26 +140,105 @@ def test_splishsplash_other_mappings(tmp_path):
                                      "color": d["phases"]["Fluid"]["color"]}}
     em = d["emitter"][0]
     assert np.allclose(em["direction"], [-1, 0, 0]) and em["stop"] < 2.0
+    assert (em["shape"], em["width"], em["height"], em["up"]) == ("box", 0.15, 0.1, None)
+    assert "domain" not in res.scene and sc.data["domain"] is None  # derived: the tank
     text = "\n".join(res.warnings)
     for what in ("Configuration.stiffness", "cflFactor 3", "maxIterationsV 50", "bunny.bgeo",
-                 "3 x 2 particle box nozzle", "viscosity method 7"):
+                 "viscosity method 7"):
         assert what in text
+    assert "nozzle" not in text
     s = sc.realize()
-    assert s.n_fluid == 10 * 4 * 20 + 20  # the block; 4 layers of 5 (maxEmitterParticles)
-    assert np.allclose(np.unique(s.birth), [0.0, 0.05, 0.1, 0.15])
+    assert s.n_fluid == 10 * 4 * 20 + 18  # the block; 3 layers of 3 x 2 (maxEmitterParticles 20)
+    assert np.allclose(np.unique(s.birth), [0.0, 0.05, 0.1])
+    layer = s.x[s.birth == 0.05]
+    assert np.allclose(layer[:, 0], 0.2) and np.allclose(np.ptp(layer[:, 1:], axis=0), [0.05, 0.1])
+    assert np.allclose(s.meta["scene_domain"], [[-0.5, 0, -0.5], [0.5, 1, 0.5]])
+
+
+def test_splishsplash_sim2d_scene_is_2d(tmp_path):
+    """Configuration.sim2D: a 2-D dcdc scene in the plane z = 0. As in SPlisHSPlasH, every
+    emitter turns about z and is a segment: a box of height h particles (its width is
+    ignored), a circle of width w particles; no domain is written (derived: the tank)."""
+    models = tmp_path / "models"
+    shutil.copytree(MODELS, models)
+    scene = {
+        "Configuration": {"sim2D": True, "particleRadius": 0.025, "gravitation": [0, -9.81, 0],
+                          "stopAt": 0.1},
+        "RigidBodies": [{"geometryFile": "models/UnitBox.obj", "translation": [0, 0.5, 0],
+                         "scale": [1, 1, 0.2], "mapInvert": True}],
+        "FluidBlocks": [{"start": [-0.5, 0, -0.1], "end": [-0.2, 0.2, 0.1],
+                         "initialVelocity": [0.5, 0, 0]}],
+        "Emitters": [{"type": 0, "width": 8, "height": 3, "translation": [-0.3, 0.6, 0],
+                      "velocity": 1, "emitEndTime": 0.05},
+                     {"type": 1, "width": 4, "translation": [0.3, 0.6, 0], "velocity": 1,
+                      "rotationAxis": [0, 1, 0], "rotationAngle": 3.141592653589793,
+                      "emitEndTime": 0.05}],
+    }
+    src = tmp_path / "flat.json"
+    src.write_text(json.dumps(scene))
+    res, sc = imported(src, tmp_path)
+    d = sc.data
+    assert d["dim"] == 2 and d["gravity"] == [0, -9.81] and d["domain"] is None
+    assert d["fluid"][0]["min"] == [-0.5, 0] and d["fluid"][0]["velocity"] == [0.5, 0]
+    box, circle = d["emitter"]
+    assert (box["shape"], box["height"], box["width"], box["position"]) == ("box", 0.15, None, [-0.3, 0.6])
+    assert (circle["shape"], circle["height"]) == ("box", 0.2)
+    assert np.allclose(box["direction"], [1, 0]) and np.allclose(circle["direction"], [-1, 0])
+    assert not any("sim2D" in w for w in res.warnings) and "sim2D" in res.text
+    assert "domain" not in res.text.split("[phases")[0]
+    s = sc.realize()
+    assert s.dim == 2 and np.allclose(s.meta["scene_domain"], [[-0.5, 0], [0.5, 1]])
+    assert (s.birth == 0).sum() == 6 * 4 + 3 + 4  # the block, one layer of each nozzle
+    first = s.x[s.birth == 0]
+    assert np.allclose(np.sort(first[np.isclose(first[:, 0], 0.3), 1]), [0.525, 0.575, 0.625, 0.675])
+    run_sph(sc)
+
+
+def test_splishsplash_box_emitter_keeps_its_orientation(tmp_path):
+    """A box emitter turned about its jet (x) keeps its height side: ``up`` is written."""
+    scene = {"FluidBlocks": [{"start": [0, 0, 0], "end": [0.2, 0.2, 0.2]}],
+             "Emitters": [{"type": 0, "width": 4, "height": 2, "translation": [0.5, 0.5, 0.5],
+                           "rotationAxis": [1, 0, 0], "rotationAngle": 1.5707963267948966}]}
+    src = tmp_path / "turned.json"
+    src.write_text(json.dumps(scene))
+    res, sc = imported(src, tmp_path)
+    em = sc.data["emitter"][0]
+    assert np.allclose(em["direction"], [1, 0, 0]) and np.allclose(em["up"], [0, 0, 1])
+    assert sc.data["solver"]["on_escape"] == "remove"  # no container: an open scene
+    s = sc.realize()
+    layer = s.x[(s.birth == 0) & np.isclose(s.x[:, 0], 0.5)]  # the first layer, 4 x 2
+    assert len(layer) == 8 and np.allclose(np.ptp(layer, axis=0), [0, 0.15, 0.05])
+
+
+def _multiphase(path: Path) -> bool:
+    """A SPlisHSPlasH scene whose fluid items use two or more material ids."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    if not isinstance(data, dict):
+        return False
+    items = [x for k in ("FluidBlocks", "FluidModels", "Emitters") for x in data.get(k, [])
+             if isinstance(x, dict)]
+    return len({x.get("id", "Fluid") for x in items}) > 1
 
 
 @pytest.mark.skipif(not __import__("importlib").util.find_spec("pysplishsplash"),
                     reason="pysplishsplash is not installed")
 def test_shipped_splishsplash_multiphase_scenes(tmp_path):
+    """Every multiphase scene in pysplishsplash's data/Scenes imports and validates."""
     import pysplishsplash
-    root = Path(pysplishsplash.__file__).parent
-    scenes = sorted(p for p in root.rglob("*.json") if "MultiPhase" in p.name or "TwoPhase" in p.name)
+    root = Path(pysplishsplash.__file__).resolve().parent
+    folders = sorted({p.parent for p in root.rglob("*.json") if p.parent.name == "Scenes"})
+    if not folders:
+        pytest.skip(f"no data/Scenes folder in {root}")
+    scenes = [p for f in folders for p in sorted(f.glob("*.json")) if _multiphase(p)]
     if not scenes:
-        pytest.skip("no multiphase scenes shipped with pysplishsplash")
+        pytest.skip(f"no multiphase scenes in {', '.join(map(str, folders))}")
     for p in scenes:
         res, sc = imported(p, tmp_path, p.stem + ".toml")
-        assert sc.realize(resolution=0.3).n_fluid > 0
+        assert sc.dim in (2, 3) and sc.data["phases"]
+        assert sc.realize(resolution=0.3).n_fluid > 0, p.name
 
 
 # ------------------------------------------------------------------ command line, errors
@@ -210,6 +290,8 @@ DLF_OK = {"walls": [{"path": BOX}], "fluids": [{"path": CUBE, "translation": [0,
      r"Configuration\.maxError must be > 0"),
     ({"Materials": [{"id": "Fluid", "density0": -1}], "FluidBlocks": [{"start": [0, 0, 0], "end": [1, 1, 1]}]},
      r"Materials\[0\]\.density0 must be > 0"),
+    ({"Configuration": {"sim2D": True}, "Emitters": [{"direction": [0, 0, 1]}]},
+     r"Emitters\[0\] jets along z, out of the plane of a 2-D scene"),
 ])
 def test_bad_input_is_one_line_error(tmp_path, capsys, content, match):
     src = _bad(tmp_path, "bad.json", content)

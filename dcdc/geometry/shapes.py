@@ -1,7 +1,9 @@
 """Signed distance functions of built-in shapes (negative inside the solid).
 
 Each function returns an SDF ``f(x: [N, d]) -> [N]`` and works in 2-D and 3-D unless noted.
-Combine solids with :func:`union` (min) and :func:`subtract`.
+Combine solids with :func:`union` (min) and :func:`subtract`. :func:`cylinder_bounds` and
+:func:`revolved_bounds` give the axis-aligned box of a shape (a scene without ``[domain]``
+derives its domain from its shapes' boxes, ``dcdc.scene.format.derive_domain``).
 """
 from __future__ import annotations
 
@@ -74,6 +76,16 @@ def cylinder(center, radius: float, height: float, axis: int = 1):
     return f
 
 
+def cylinder_bounds(center, radius: float, height: float, axis: int = 1):
+    """Axis-aligned bounds (lo, hi) of :func:`cylinder` in the dimension of ``center``
+    (in 2-D a cylinder along z is a disc)."""
+    c = np.asarray(center, dtype=np.float64)
+    half = np.full(len(c), float(radius))
+    if axis < len(c):
+        half[axis] = height / 2
+    return c - half, c + half
+
+
 # ---------------------------------------------------------------- 2-D profiles, revolution
 def polyline_distance(points, x2: np.ndarray) -> np.ndarray:
     """Unsigned distance from 2-D points ``x2`` [N, 2] to the polyline through ``points``."""
@@ -103,6 +115,19 @@ def revolved_shell(profile, thickness: float, center=(0.0, 0.0, 0.0)):
     (glasses, bowls, hourglasses) are built this way."""
     prof = np.asarray(profile, dtype=np.float64)
     return lambda x: polyline_distance(prof, _radial(x, center)) - thickness / 2
+
+
+def revolved_bounds(profile, thickness: float, center, dim: int = 3, up_axis: int = 1):
+    """Axis-aligned bounds (lo, hi) of :func:`revolved_shell` in ``dim`` dimensions: the
+    profile's largest radius around the axis, its height range along ``up_axis``, both
+    grown by half the wall thickness."""
+    p = np.asarray(profile, dtype=np.float64)
+    c = np.asarray(center, dtype=np.float64)[:dim]
+    half = np.full(dim, p[:, 0].max() + thickness / 2)
+    lo, hi = c - half, c + half
+    lo[up_axis] = c[up_axis] + p[:, 1].min() - thickness / 2
+    hi[up_axis] = c[up_axis] + p[:, 1].max() + thickness / 2
+    return lo, hi
 
 
 def profile_interior(profile, center=(0.0, 0.0, 0.0)):

@@ -69,9 +69,13 @@ def estimate(s: dict) -> dict:
         fluid += _box_points(a, b, sp)
     emitted = 0.0
     for e in s["emitter"]:
-        rad = e["radius"] if e["radius"] is not None else 2 * sp
-        n = 2 * math.floor(rad / sp + 1e-9) + 1
-        per_layer = n if dim == 2 else n * n
+        if e.get("shape") == "box":  # floor(side / spacing) points per side, at least one
+            side = (lambda v: max(1, math.floor(v / sp + 1e-9)))
+            per_layer = side(e["height"]) * (1 if dim == 2 else side(e["width"]))
+        else:
+            rad = e["radius"] if e["radius"] is not None else 2 * sp
+            n = 2 * math.floor(rad / sp + 1e-9) + 1
+            per_layer = n if dim == 2 else n * n
         interval = sp / e["speed"] if e["rate"] is None else per_layer / e["rate"]
         emitted += per_layer * math.ceil((e["stop"] - e["start"]) / interval)
     walls = 0.0

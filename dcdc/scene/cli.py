@@ -11,7 +11,8 @@ def _summary(system, scene) -> str:
     lo, hi = (np.asarray(c) for c in system.meta.get("scene_domain", system.domain))
     lines = [f"scene     {scene.name} ({system.dim}-D{', cross-section of the 3-D scene' if system.dim < scene.dim else ''})",
              f"about     {scene.data['description']}" if scene.data["description"] else None,
-             f"domain    {lo.round(3).tolist()} .. {hi.round(3).tolist()} m",
+             f"domain    {lo.round(3).tolist()} .. {hi.round(3).tolist()} m"
+             + (" (derived: the box around walls and fluid)" if scene.data["domain"] is None else ""),
              f"radius    {system.radius:g} m (spacing {system.spacing:g} m)",
              f"duration  {scene.duration:g} s ({int(round(scene.duration / scene.frame_dt))} frames of {scene.frame_dt:g} s)",
              f"gravity   {system.gravity.round(4).tolist()} m/s²",

@@ -6,9 +6,14 @@ dotted field and, where it can be found, its line ("phases.oil.density must be >
 (line 12)"). Realising a scene reports (never repairs) overlapping fluid blocks, fluid
 inside walls, fluid outside the domain and missing mesh files.
 
+A scene without ``[domain]`` gets the axis-aligned box around its walls, fluid blocks and
+emitters (:func:`derive_domain`, per variant; ``meta["scene_domain"]`` of the realised
+system holds it); a wall without such a box (terrain) asks for ``[domain]``.
+
 Meshes (OBJ, STL, ... scaled per axis, rotated, translated) are walls (closed solids,
 containers or shells), fluid blocks (``shape = "mesh"``: a closed mesh's inside on the
 global lattice) and emitters (``shape = "mesh"``: that fluid released repeatedly).
+Nozzle emitters are round (``shape = "nozzle"``) or rectangular (``shape = "box"``).
 
 A 3-D scene also yields its 2-D cross-section (``dim=2``): every vector drops its z
 component, solids of revolution become their section through the axis, terrain is cut at
@@ -42,7 +47,7 @@ TOP = {
     "name": ("str", REQ), "description": ("str", ""), "dim": ("dim", REQ),
     "radius": ("pos", DEFAULT_RADIUS), "duration": ("pos", 2.0), "frame_dt": ("pos", FRAME_DT),
     "gravity": ("vec", None), "seed": ("int", 0), "wall_thickness": ("L", None),
-    "domain": ("section", REQ), "phases": ("section", REQ), "walls": ("section", {}),
+    "domain": ("section", None), "phases": ("section", REQ), "walls": ("section", {}),
     "fluid": ("list", []), "emitter": ("list", []), "solver": ("table", {}),
 }
 DOMAIN = {"min": ("vecL", REQ), "max": ("vecL", REQ)}
@@ -87,11 +92,15 @@ FLUID_SHAPES = {
 EMITTER = {"shape": ("str", "nozzle"), "phase": ("str", REQ), "position": ("vecL", REQ),
            "direction": ("vec", REQ), "speed": ("pos", REQ), "radius": ("L", None),
            "rate": ("pos", None), "start": ("nonneg", 0.0), "stop": ("pos", REQ)}
+# a rectangular nozzle: width x height across the jet, the height side along ``up`` (3-D);
+# in 2-D a segment of length height
+EMITTER_BOX = {**{k: v for k, v in EMITTER.items() if k != "radius"}, "shape": ("str", REQ),
+               "width": ("L", None), "height": ("L", REQ), "up": ("vec", None)}
 # the fluid inside a closed mesh released whole at start, start + interval, ... < stop
 EMITTER_MESH = {"shape": ("str", REQ), "phase": ("str", REQ), **MESH_PLACE,
                 "velocity": ("vec", None), "start": ("nonneg", 0.0), "stop": ("pos", REQ),
                 "interval": ("pos", REQ)}
-EMITTER_SHAPES = {"nozzle": EMITTER, "mesh": EMITTER_MESH}
+EMITTER_SHAPES = {"nozzle": EMITTER, "box": EMITTER_BOX, "mesh": EMITTER_MESH}
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 DEFAULT_COLORS = [(0.85, 0.2, 0.15), (0.2, 0.7, 0.25), (0.15, 0.35, 0.85), (0.95, 0.75, 0.1),
                   (0.6, 0.3, 0.75), (0.1, 0.7, 0.75), (0.9, 0.45, 0.1), (0.5, 0.5, 0.5)]
@@ -248,9 +257,10 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     if not NAME_RE.match(s["name"]):
         ck.fail("name", "must be letters, digits, _ or - (starting with a letter)")
     s["gravity"] = s["gravity"] if s["gravity"] is not None else [0.0, -9.81, 0.0][:dim]
-    s["domain"] = ck.table("domain", s["domain"], DOMAIN, dim)
-    if not all(b > a for a, b in zip(s["domain"]["min"], s["domain"]["max"])):
-        ck.fail("domain.max", "must exceed domain.min in every axis")
+    if s["domain"] is not None:  # else derived from walls and fluid (derive_domain)
+        s["domain"] = ck.table("domain", s["domain"], DOMAIN, dim)
+        if not all(b > a for a, b in zip(s["domain"]["min"], s["domain"]["max"])):
+            ck.fail("domain.max", "must exceed domain.min in every axis")
     if not isinstance(s["phases"], dict) or not s["phases"]:
         ck.fail("phases", "must define at least one phase ([phases.NAME] with a density)")
     phases = {}
@@ -327,8 +337,10 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
         em = ck.table(p, e, EMITTER_SHAPES[shape], dim)
         if em["phase"] not in phases:
             ck.fail(f"{p}.phase", f"names no phase (phases: {', '.join(phases)})")
-        if shape == "nozzle" and np.linalg.norm(em["direction"]) == 0:
+        if shape in ("nozzle", "box") and np.linalg.norm(em["direction"]) == 0:
             ck.fail(f"{p}.direction", "must be a non-zero vector")
+        if shape == "box":
+            _check_box_nozzle(ck, p, em, dim)
         if shape == "mesh":
             _check_rotation(ck, p, em)
             if em["velocity"] is None:
@@ -340,6 +352,21 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     if not fluids and not ems:
         ck.fail("fluid", "is empty: a scene needs at least one [[fluid]] block or [[emitter]]")
     return s
+
+
+def _check_box_nozzle(ck: _Checker, p: str, e: dict, dim: int) -> None:
+    """A box nozzle: width (3-D only, required there) and an ``up`` not along the jet."""
+    flat = "applies to 3-D scenes (a 2-D box nozzle is a segment of length height across the jet)"
+    if dim == 2:
+        for k in ("width", "up"):
+            if e[k] is not None:
+                ck.fail(f"{p}.{k}", flat)
+        return
+    if e["width"] is None:
+        ck.fail(f"{p}.width", "is required (a 3-D box nozzle is width x height)")
+    up, d = e["up"], np.asarray(e["direction"])
+    if up is not None and np.linalg.norm(np.cross(up, d)) <= 1e-9 * np.linalg.norm(up) * np.linalg.norm(d):
+        ck.fail(f"{p}.up", "must be a vector not along the direction (it orients the height side)")
 
 
 def _check_rotation(ck: _Checker, p: str, d: dict) -> None:
@@ -374,7 +401,8 @@ def _transform(s: dict, dim: int, scale: float) -> dict:
                 v = [[a * scale, b * scale] for a, b in v]
             d[k] = v
     conv(s, {k: v for k, v in TOP.items() if v[0] not in ("section", "list", "table")})
-    conv(s["domain"], DOMAIN)
+    if s["domain"] is not None:
+        conv(s["domain"], DOMAIN)
     for w in s["walls"].values():
         if w["shape"] == "terrain":
             w["base"] *= scale
@@ -471,20 +499,7 @@ def _build_walls(s: dict, base_dir: Path | None, thickness: float,
         elif shape in ("bowl", "glass", "hourglass"):
             t = w["thickness"] or thickness
             c = list(w["center"]) + [0.0] * (3 - dim)
-            if shape == "bowl":
-                # centre-line of the wall half a thickness outside the cavity
-                wall = sh.bowl_profile(w["radius"] + t / 2) + np.array([0.0, -t / 2])
-                cav = sh.bowl_profile(w["radius"])
-            elif shape == "glass":
-                wall, bowl = sh.glass_profile(w["bowl"], w["stem"], w["foot"])
-                # cavity: the bowl's centre-line moved inwards by half the wall
-                cav = bowl + np.array([0.0, t / 2])
-                cav[:, 0] = np.maximum(cav[:, 0] - t / 2, 0)
-            else:
-                nh = w["neck_height"] or w["radius"]
-                wall = sh.hourglass_profile(w["radius"] + t / 2, w["height"] + t, w["neck"] + t / 2, nh)
-                cav = sh.hourglass_profile(w["radius"], w["height"], w["neck"], nh) \
-                    + np.array([0.0, t / 2])
+            wall, cav = _revolved_profiles(w, t)
             sdf = sh.revolved_shell(wall, t, c)
             inside = sh.profile_interior(cav, c)
         elif shape == "terrain":
@@ -503,6 +518,26 @@ def _build_walls(s: dict, base_dir: Path | None, thickness: float,
             raise AssertionError(shape)
         out.append(_Solid(name, sdf, inside, mesh=getattr(sdf, "mesh", None)))
     return out
+
+
+def _revolved_profiles(w: dict, t: float):
+    """(wall centre-line, cavity profile) of a bowl, glass or hourglass wall of thickness
+    ``t``, as (radius, height) polylines relative to its ``center``."""
+    from ..geometry import shapes as sh
+    if w["shape"] == "bowl":
+        # centre-line of the wall half a thickness outside the cavity
+        return (sh.bowl_profile(w["radius"] + t / 2) + np.array([0.0, -t / 2]),
+                sh.bowl_profile(w["radius"]))
+    if w["shape"] == "glass":
+        wall, bowl = sh.glass_profile(w["bowl"], w["stem"], w["foot"])
+        # cavity: the bowl's centre-line moved inwards by half the wall
+        cav = bowl + np.array([0.0, t / 2])
+        cav[:, 0] = np.maximum(cav[:, 0] - t / 2, 0)
+        return wall, cav
+    nh = w["neck_height"] or w["radius"]
+    wall = sh.hourglass_profile(w["radius"] + t / 2, w["height"] + t, w["neck"] + t / 2, nh)
+    cav = sh.hourglass_profile(w["radius"], w["height"], w["neck"], nh) + np.array([0.0, t / 2])
+    return wall, cav
 
 
 def _mesh_wall(name: str, w: dict, mesh, dim: int, band: float, spacing: float):
@@ -631,11 +666,42 @@ def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, sol
     raise AssertionError(shape)
 
 
-def _emitter_points(e: dict, dim: int, spacing: float):
-    """Nozzle cross-section points (a disc in 3-D, a segment in 2-D) repeated in layers."""
+def nozzle_ticks(length: float, spacing: float) -> np.ndarray:
+    """Offsets of the points across one side of a box nozzle: floor(length / spacing) of
+    them (at least one), ``spacing`` apart and centred, as in a box block of that size."""
+    n = max(1, int(math.floor(length / spacing + 1e-9)))
+    return (np.arange(n) - 0.5 * (n - 1)) * spacing
+
+
+def box_nozzle_axes(direction, up=None):
+    """(height axis, width axis) of a 3-D box nozzle jetting along ``direction``: ``up``
+    (default y, or x for a vertical jet) made normal to the jet, and direction × height."""
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    if up is None:
+        up = [1.0, 0.0, 0.0] if abs(d[1]) > 1 - 1e-6 else [0.0, 1.0, 0.0]
+    h = np.asarray(up, dtype=np.float64)
+    h = h - (h @ d) * d
+    h /= np.linalg.norm(h)
+    return h, np.cross(d, h)
+
+
+def _nozzle_layer(e: dict, dim: int, spacing: float) -> np.ndarray:
+    """One layer of a nozzle's particles around ``position``, across the jet: a round
+    nozzle's disc (a segment in 2-D) of points k·spacing from the centre within
+    ``radius``; a box nozzle's width × height grid (in 2-D: the segment of its height)."""
     d = np.asarray(e["direction"], dtype=np.float64)
     d /= np.linalg.norm(d)
-    r = e["radius"] if e["radius"] is not None else 2 * spacing
+    if e.get("shape", "nozzle") == "box":
+        if dim == 2:
+            disc = nozzle_ticks(e["height"], spacing)[:, None] * np.array([-d[1], d[0]])[None]
+        else:
+            h, w = box_nozzle_axes(d, e.get("up"))
+            a, b = np.meshgrid(nozzle_ticks(e["width"], spacing), nozzle_ticks(e["height"], spacing),
+                               indexing="ij")
+            disc = a.reshape(-1, 1) * w[None] + b.reshape(-1, 1) * h[None]
+        return np.asarray(e["position"]) + disc
+    r = e.get("radius") if e.get("radius") is not None else 2 * spacing
     # orthonormal basis of the plane normal to d
     a = np.eye(dim)[np.argmin(np.abs(d))]
     u = a - (a @ d) * d
@@ -649,7 +715,15 @@ def _emitter_points(e: dict, dim: int, spacing: float):
         g = np.stack(np.meshgrid(ks, ks, indexing="ij"), -1).reshape(-1, 2)
         g = g[np.linalg.norm(g, axis=1) <= r + 1e-9]
         disc = g[:, :1] * u[None] + g[:, 1:] * w[None]
-    pos = np.asarray(e["position"]) + disc
+    return np.asarray(e["position"]) + disc
+
+
+def _emitter_points(e: dict, dim: int, spacing: float):
+    """Nozzle cross-section points (:func:`_nozzle_layer`) repeated in layers: positions,
+    velocities and birth times."""
+    d = np.asarray(e["direction"], dtype=np.float64)
+    d /= np.linalg.norm(d)
+    pos = _nozzle_layer(e, dim, spacing)
     per_layer = len(pos)
     interval = spacing / e["speed"] if e["rate"] is None else per_layer / e["rate"]
     n_layers = int(np.ceil((e["stop"] - e["start"]) / interval - 1e-9))
@@ -697,6 +771,76 @@ def _budget_view(s: dict, base_dir: Path | None, meshes: dict) -> dict:
     return v
 
 
+def _wall_bounds(name: str, w: dict, dim: int, thickness: float, base_dir, meshes, src: str):
+    """Axis-aligned box (lo, hi) around a wall: a hollow box or closed mesh is its cavity
+    (the solid lies outside), a mesh shell is its mesh grown by the shell's thickness."""
+    from ..geometry import shapes as sh
+    shape = w["shape"]
+    if shape == "box":
+        return np.array(w["min"]), np.array(w["max"])
+    if shape == "sphere":
+        c = np.array(w["center"])
+        return c - w["radius"], c + w["radius"]
+    if shape == "cylinder":
+        return sh.cylinder_bounds(w["center"], w["radius"], w["height"], w["axis"])
+    if shape in ("bowl", "glass", "hourglass"):
+        t = w["thickness"] or thickness
+        return sh.revolved_bounds(_revolved_profiles(w, t)[0], t, w["center"], dim)
+    if shape == "mesh":
+        m = _placed_mesh(f"walls.{name}", w, base_dir, meshes)
+        grow = w["thickness"] or 0.0
+        return np.asarray(m.bounds[0][:dim]) - grow, np.asarray(m.bounds[1][:dim]) + grow
+    raise DcdcError(f"{src}: walls.{name} ({shape}) has no bounding box to derive the domain from "
+                    "(its solid reaches down and sideways without end); give the scene a [domain] "
+                    "with min and max")
+
+
+def _fluid_bounds(f: dict, field: str, dim: int, base_dir, meshes):
+    """Axis-aligned box around a fluid block, or None for a fill (it lies in its wall)."""
+    from ..geometry import shapes as sh
+    shape = f["shape"]
+    if shape == "box":
+        lo, hi = np.array(f["min"]), np.array(f["max"])
+        lo[1] -= abs(f["bottom_wave"][0]) if f["bottom_wave"] else 0.0
+        hi[1] += abs(f["top_wave"][0]) if f["top_wave"] else 0.0
+        return lo, hi
+    if shape == "sphere":
+        c = np.array(f["center"])
+        return c - f["radius"], c + f["radius"]
+    if shape == "cylinder":
+        return sh.cylinder_bounds(f["center"], f["radius"], f["height"], f["axis"])
+    if shape == "mesh":
+        m = _placed_mesh(field, f, base_dir, meshes)
+        return np.asarray(m.bounds[0][:dim]), np.asarray(m.bounds[1][:dim])
+    return None
+
+
+def derive_domain(s: dict, base_dir: Path | None = None, meshes: dict | None = None,
+                  src: str = "scene") -> dict:
+    """The domain of a scene variant that gives no ``[domain]``: the axis-aligned box around
+    every wall, fluid block and emitter (nozzle or mesh). A wall without a box (terrain)
+    is a one-line :class:`DcdcError` asking for ``[domain]``."""
+    dim, sp = s["dim"], 2 * s["radius"]
+    thickness = s["wall_thickness"] or 2 * sp
+    boxes = [_wall_bounds(n, w, dim, thickness, base_dir, meshes, src) for n, w in s["walls"].items()]
+    boxes += [b for i, f in enumerate(s["fluid"])
+              if (b := _fluid_bounds(f, f"fluid[{i}]", dim, base_dir, meshes)) is not None]
+    for i, e in enumerate(s["emitter"]):
+        if e["shape"] == "mesh":
+            m = _placed_mesh(f"emitter[{i}]", e, base_dir, meshes)
+            boxes.append((np.asarray(m.bounds[0][:dim]), np.asarray(m.bounds[1][:dim])))
+        else:  # the nozzle's points, half a spacing around them
+            x = _nozzle_layer(e, dim, sp)
+            boxes.append((x.min(0) - sp / 2, x.max(0) + sp / 2))
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    flat = [a for a, (l, h) in enumerate(zip(lo, hi)) if not h > l]
+    if flat:
+        raise DcdcError(f"{src}: the box around the walls and fluid is flat along {'xyz'[flat[0]]}; "
+                        "give the scene a [domain] with min and max")
+    return {"min": [float(v) for v in lo], "max": [float(v) for v in hi]}
+
+
 @dataclass
 class Scene:
     """A validated scene. ``data`` holds every field with defaults filled in."""
@@ -737,8 +881,21 @@ class Scene:
             line = _find_line(self.text, "solver")
             raise DcdcError(f"{src}: [solver]: {e}" + (f" (table at line {line})" if line else "")) from None
 
-    def variant(self, dim: int | None = None, resolution: float = 1.0) -> dict:
-        return _transform(self.data, dim or self.dim, resolution)
+    @property
+    def source(self) -> str:
+        """The scene as messages name it: its file name, or NAME."""
+        return self.path.name if self.path else self.name
+
+    def variant(self, dim: int | None = None, resolution: float = 1.0,
+                meshes: dict | None = None) -> dict:
+        """The ``dim``-D variant at ``resolution`` (:func:`_transform`); a scene without
+        ``[domain]`` gets the box around its walls and fluid (:func:`derive_domain`;
+        ``meshes`` caches the placed meshes it loads)."""
+        s = _transform(self.data, dim or self.dim, resolution)
+        if s["domain"] is None:
+            s["domain"] = derive_domain(s, self.path.parent if self.path else None,
+                                        {} if meshes is None else meshes, self.source)
+        return s
 
     def realize(self, dim: int | None = None, resolution: float = 1.0,
                 check: bool = True, frames: int | None = None,
@@ -751,9 +908,9 @@ class Scene:
         from ..neighbors import radius_search
         from . import budget
 
-        s = self.variant(dim, resolution)
-        base_dir = self.path.parent if self.path else None
         meshes: dict = {}  # placed meshes, each loaded once
+        s = self.variant(dim, resolution, meshes)
+        base_dir = self.path.parent if self.path else None
         budget.check(_budget_view(s, base_dir, meshes), str(self.path.name) if self.path else self.name,
                      frames, max_particles)
         dim = s["dim"]

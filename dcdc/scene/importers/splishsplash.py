@@ -26,8 +26,15 @@ What maps:
   STL, OFF) → a ``mesh`` block (scaled, rotated, translated).
 * ``Emitters``: position ``translation``, direction the first column of the rotation (or
   the older ``direction``), ``velocity`` → speed, ``emitStartTime`` / ``emitEndTime`` →
-  start / stop, ``emitsPerSecond`` → rate; a circle of ``width`` w particles has radius
-  w·r, a w × h box becomes a round nozzle of the same area (with a warning).
+  start / stop, ``emitsPerSecond`` → rate; a circle of ``width`` w particles is a round
+  nozzle of radius w·r, a box (``type`` 0) of w × h particles a box nozzle of w·2r × h·2r
+  (height side along the rotation's second column).
+* ``sim2D``: a 2-D scene (``dim = 2``, the plane z = 0; meshes are sectioned there, z
+  components dropped). As SPlisHSPlasH does in 2-D, every emitter turns about z and is a
+  segment of height (a circle: width) particles, a 2-D box nozzle.
+* No ``[domain]`` is written: dcdc derives the box around walls and fluid. A scene without
+  a closed container gets ``[solver] on_escape = "remove"`` (fluid leaving that box is
+  dropped; SPlisHSPlasH has no domain).
 
 Everything else that changes the physics (other solvers and viscosity methods, surface
 tension, vorticity, drag, elasticity, animation fields, dynamic bodies, particle
@@ -43,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DcdcError
-from .common import Reader, domain, finish, scene_name, toml_path, unique
+from .common import Reader, finish, scene_name, toml_path, unique
 
 FMT = "SPlisHSPlasH"
 DEFAULT_ID = "Fluid"
@@ -259,8 +266,6 @@ def _solver(im: _Import, cfg: dict) -> dict:
     for key in ("kernel", "gradKernel"):
         if key in cfg:
             im.warn(f"Configuration.{key} {cfg[key]}: not mapped (dcdc's kernels are fixed)")
-    if rd.flag(cfg, "sim2D", w, False):
-        im.warn("Configuration.sim2D: imported as a 3-D scene; run its z = 0 section with --dim 2")
     from ...sph import SPHConfig
     try:
         SPHConfig.from_dict(out)
@@ -290,7 +295,7 @@ def _front_side(mesh, points) -> bool:
 def convert(data: dict, path: Path, output: Path | None, name: str | None = None):
     """The dcdc scene (:class:`~.common.Imported`) of the SPlisHSPlasH scene ``data``."""
     from ...geometry import mesh as gm
-    from ..format import _emitter_points
+    from ..format import _emitter_points, box_nozzle_axes
     im = _Import(path, output)
     rd = im.rd
     blocks, models = rd.items(data, "FluidBlocks"), rd.items(data, "FluidModels")
@@ -311,6 +316,15 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
     fps = rd.number(cfg, "dataExportFPS", "Configuration", None, positive=True)
     solver = _solver(im, cfg)
     particle_walls = solver.get("boundary") == "particles"
+    dim = 2 if rd.flag(cfg, "sim2D", "Configuration", False) else 3
+
+    def plane(v, where):
+        """``v`` in the scene's dimension: a 2-D scene drops z (with a warning unless 0)."""
+        if dim == 3 or v is None:
+            return v
+        if v[2]:
+            im.warn(f"{where}: z component {v[2]:g} dropped (a 2-D scene, Configuration.sim2D)")
+        return v[:2]
 
     # materials -> phases: one per id that a fluid item names, defined or not (a material
     # no fluid uses adds nothing to the scene)
@@ -323,7 +337,7 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
         phases[names[mid]] = ph
         caps[mid] = cap
 
-    bounds, refs = [], []  # refs: points inside the fluid (which side of a wall it is on)
+    refs = []  # points inside the fluid (which side of a wall it is on)
     fluids = []
     for i, b in enumerate(blocks):
         where = f"FluidBlocks[{i}]"
@@ -343,10 +357,10 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
             im.warn(f"{where}: denseMode {dense} not mapped (dcdc samples every block on its lattice)")
         if any(rd.vec3(b, "initialAngularVelocity", where, [0.0, 0.0, 0.0])):
             im.warn(f"{where}: initialAngularVelocity not mapped (dcdc blocks start with one velocity)")
-        fluids.append({"phase": names[mid], "shape": "box", "min": lo.round(9).tolist(),
-                       "max": hi.round(9).tolist(),
-                       "velocity": rd.vec3(b, "initialVelocity", where, [0.0, 0.0, 0.0]), "name": where})
-        bounds.append((lo, hi))
+        fluids.append({"phase": names[mid], "shape": "box", "min": lo[:dim].round(9).tolist(),
+                       "max": hi[:dim].round(9).tolist(),
+                       "velocity": plane(rd.vec3(b, "initialVelocity", where, [0.0, 0.0, 0.0]),
+                                         f"{where}.initialVelocity"), "name": where})
         refs.append(((lo + hi) / 2).tolist())
     for i, f in enumerate(models):
         where = f"FluidModels[{i}]"
@@ -375,8 +389,8 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
             im.warn(f"{where}: initialAngularVelocity not mapped")
         fluids.append({"phase": names[mid], "shape": "mesh", "file": toml_path(p, output),
                        **_placed(scale, t, axis, deg),
-                       "velocity": rd.vec3(f, "initialVelocity", where, [0.0, 0.0, 0.0]), "name": where})
-        bounds.append(m.bounds)
+                       "velocity": plane(rd.vec3(f, "initialVelocity", where, [0.0, 0.0, 0.0]),
+                                         f"{where}.initialVelocity"), "name": where})
         refs.append(np.asarray(m.centroid).tolist())
 
     emitters, emitted = [], {}
@@ -393,43 +407,56 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
             rd.fail(where, f"needs width (and height) >= 1 particle (got {wn} x {hn})")
         pos = rd.vec3(e, "translation", where, [0.0, 0.0, 0.0])
         _, _, axis, deg = im.placement({k: e[k] for k in ("rotationAxis", "rotationAngle") if k in e}, where)
-        d = gm.rotation_matrix(axis, deg)[:, 0] if deg else np.array([1.0, 0.0, 0.0])
+        if dim == 2:  # SPlisHSPlasH turns 2-D emitters about z whatever the axis
+            axis = [0.0, 0.0, 1.0]
+        rot = gm.rotation_matrix(axis, deg) if deg else np.eye(3)
+        d, up = rot[:, 0], rot[:, 1]  # the jet, the box's height side (its width: the third)
         vel = e.get("velocity", 1.0)
         if isinstance(vel, list):  # older files: a velocity vector (and a direction)
             v = np.asarray(rd.vec3(e, "velocity", where))
             speed = float(np.linalg.norm(v))
-            d = v / speed if speed > 0 else d
+            d, up = (v / speed, None) if speed > 0 else (d, up)
         else:
             speed = rd.number(e, "velocity", where, 1.0)
         if "direction" in e:
             dd = np.asarray(rd.vec3(e, "direction", where))
             if not np.linalg.norm(dd) > 0:
                 rd.fail(f"{where}.direction", "must be a non-zero vector")
-            d = dd / np.linalg.norm(dd)
+            d, up = dd / np.linalg.norm(dd), None
         if not speed > 0:
             rd.fail(f"{where}.velocity", f"must be > 0 (got {speed:g}): dcdc emitters push fluid out")
-        if kind == 1:
+        if dim == 2:
+            if not np.linalg.norm(d[:2]) > 1e-9:
+                rd.fail(where, "jets along z, out of the plane of a 2-D scene (Configuration.sim2D)")
+            d = d[:2] / np.linalg.norm(d[:2])
+            # SPlisHSPlasH emits in 2-D through a box one particle wide: a segment of
+            # height (a circle: width) particles
+            n = wn if kind == 1 else hn
+            nozzle, per_layer = {"shape": "box", "height": round(n * sp, 9)}, n
+        elif kind == 1:
             radius = wn * r  # SPlisHSPlasH: radius 0.5 · width · 2r
             g = (np.arange(wn) - 0.5 * (wn - 1)) * sp
             per_layer = int((g[:, None] ** 2 + g[None, :] ** 2 <= radius ** 2 + 1e-12).sum())
-        else:
-            radius = math.sqrt(wn * hn / math.pi) * sp
+            nozzle = {"radius": round(radius, 9)}
+        else:  # width particles along the rotation's third column, height along its second
+            nozzle = {"shape": "box", "width": round(wn * sp, 9), "height": round(hn * sp, 9)}
+            if up is not None and abs(float(box_nozzle_axes(d)[0] @ up)) < 1 - 1e-9:
+                nozzle["up"] = up.round(12).tolist()  # not dcdc's default height side
             per_layer = wn * hn
-            im.warn(f"{where}: a {wn} x {hn} particle box nozzle is emitted through a round nozzle "
-                    f"of the same area (radius {radius:.4g} m)")
         start = rd.number(e, "emitStartTime", where, 0.0, nonneg=True)
         end = rd.number(e, "emitEndTime", where, None)
         stop = min(end, duration) if end is not None else duration
         if stop <= start:
             im.warn(f"{where}: emits only after the run ({start:g} s, duration {duration:g} s); left out")
             continue
-        em = {"phase": names[mid], "position": pos, "direction": d.round(12).tolist(),
-              "speed": speed, "radius": round(radius, 9), "start": start, "stop": round(stop, 9)}
+        em = {"phase": names[mid], **({"shape": nozzle.pop("shape")} if "shape" in nozzle else {}),
+              "position": pos[:dim], "direction": d.round(12).tolist(), "speed": speed, **nozzle,
+              "start": start, "stop": round(stop, 9)}
         eps = rd.number(e, "emitsPerSecond", where, None, positive=True)
         if eps is not None:
             em["rate"] = per_layer * eps
         if caps.get(mid) is not None:  # maxEmitterParticles: the phase's emitters share it
-            _, _, births = _emitter_points({**em, "rate": em.get("rate")}, 3, sp)
+            _, _, births = _emitter_points({**em, "rate": em.get("rate")}, dim, sp)
             left = caps[mid] - emitted.get(mid, 0)
             if left < len(births):
                 layers = np.unique(births)  # more than one: a single layer fits or is refused
@@ -442,7 +469,6 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
                 births = births[:k * n_layer]
             emitted[mid] = emitted.get(mid, 0) + len(births)
         emitters.append(em)
-        bounds.append((np.asarray(pos) - radius, np.asarray(pos) + radius))
         refs.append(pos)
 
     walls = {}
@@ -473,7 +499,6 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
             entry["thickness"] = max(4 * r, thick)
             entry["invert_normals"] = not _front_side(m, refs)  # the shell away from the fluid
         walls[unique(scene_name(p.stem, "wall"), walls)] = entry
-        bounds.append(m.bounds)
 
     for i, f in enumerate(rd.items(data, "AnimationFields")):
         im.keys(f, f"AnimationFields[{i}]", FIELD_KEYS, set(), "animation field")
@@ -485,20 +510,29 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
         im.warn(f"{k}: PositionBasedDynamics models and joints are not mapped")
     if im.viewer:
         im.warnings.append("viewer and export settings not used: " + ", ".join(im.viewer))
-    if not bounds:
+    if not (walls or fluids or emitters):
         raise DcdcError(f"{path.name}: the scene has no fluid blocks, fluid models, emitters or "
                         "rigid bodies")
+    notes = [f"duration {duration:g} s" + (" (Configuration.stopAt)" if stop_at and stop_at > 0
+                                           else " (the scene sets no stopAt)")]
+    if dim == 2:
+        notes.append("a 2-D scene (Configuration.sim2D): the plane z = 0, where meshes are sectioned")
+    # no [domain]: dcdc derives the box around walls and fluid (SPlisHSPlasH has no domain)
+    if not any(w.get("hollow") for w in walls.values()):
+        solver["on_escape"] = "remove"
+        notes.append("no closed container: fluid that leaves the box around walls and fluid is "
+                     "removed ([solver] on_escape = \"remove\")")
     scene = {
         "name": scene_name(name or path.stem),
         "description": f"imported from the SPlisHSPlasH scene {path.name}",
-        "dim": 3, "radius": r, "duration": duration,
+        "dim": dim, "radius": r, "duration": duration,
     }
     if fps is not None:
         scene["frame_dt"] = round(1.0 / fps, 9)
-    g = rd.vec3(cfg, "gravitation", "Configuration", None)
+    g = plane(rd.vec3(cfg, "gravitation", "Configuration", None), "Configuration.gravitation")
     if g is not None:
         scene["gravity"] = g
-    scene.update(domain=domain(bounds), phases=phases)
+    scene["phases"] = phases
     if walls:
         scene["walls"] = walls
     if fluids:
@@ -507,6 +541,4 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
         scene["emitter"] = emitters
     if solver:
         scene["solver"] = solver
-    notes = [f"duration {duration:g} s" + (" (Configuration.stopAt)" if stop_at and stop_at > 0
-                                           else " (the scene sets no stopAt)")]
     return finish(scene, im.warnings, FMT, path, output, notes)
