@@ -153,3 +153,14 @@ def test_mesh_wall_rotation_and_axis_scale():
     s = parse(scene_text(body, walls=False)).realize()
     assert s.n_wall > 0
     assert np.abs(s.wall_x[:, 0]).max() > 0.2 and np.abs(s.wall_x[:, 0]).max() <= 0.2 * np.sqrt(2) + 1e-9
+
+
+def test_generate_precheck_bounds_a_mesh_block_by_the_domain():
+    """`dcdc generate` checks the budget before any mesh is read (dcdc.scene.budget.check on
+    the scene variant): a mesh block counts as the domain's lattice there, not a KeyError."""
+    from dcdc.scene.budget import check
+    sc = parse(scene_text(mesh_fluid(CUBE, "translate = [0.0, 0.5, 0.0]"), walls=False))
+    est = check(sc.variant(3, 1.0), sc.name)
+    assert est["fluid"] >= 20 ** 3  # the 1 m domain at 5 cm spacing bounds the 64 particles
+    with pytest.raises(DcdcError, match="needs ~"):
+        check(sc.variant(3, 1.0), sc.name, max_particles=1000)

@@ -57,6 +57,8 @@ def estimate(s: dict) -> dict:
         elif f["shape"] == "fill":
             a = f["min"] if f["min"] is not None else lo
             b = f["max"] if f["max"] is not None else hi
+        elif f["shape"] == "mesh":  # its box is known only once the mesh is read: the domain
+            a, b = lo, hi
         else:  # sphere, cylinder: bounding box
             half = [f["radius"]] * dim
             if f["shape"] == "cylinder":
