@@ -166,11 +166,12 @@ def test_shipped_models_load_by_name_and_match_their_card():
     from dcdc.model.checkpoint import load_checkpoint, shipped_models
 
     shipped = shipped_models()
-    networks = {"dcdc2d": "dcdc", "cconv2d": "cconv", "antisym2d": "dcdc-antisym"}
+    networks = {"dcdc2d": ("dcdc", 2), "cconv2d": ("cconv", 2), "antisym2d": ("dcdc-antisym", 2),
+                "dcdc3d": ("dcdc", 3), "cconv3d": ("cconv", 3)}
     assert set(networks) <= set(shipped)
-    for name, network in networks.items():
+    for name, (network, dim) in networks.items():
         net, ck = load_checkpoint(name)
-        assert net.name == network and net.dim == 2
+        assert net.name == network and net.dim == dim and ck["data"]["dim"] == dim
         assert ck["extra"]["step"] == ck["extra"]["train_config"]["optim"]["steps"]
         assert abs(net.cfg.particle_radius - 0.025) < 1e-12 and abs(net.cfg.frame_dt - 0.02) < 1e-12
     with pytest.raises(DcdcError, match="shipped models: .*dcdc2d"):

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Scores of the shipped 3-D models against the SPH ground truth (docs/models.md):
+#   bash benchmarks/evaluate_3d.sh [DATA=datasets/3d]
+# Writes benchmarks/eval_3d_*.json and plots per trajectory in out/eval_3d/. Two
+# evaluations run at a time, one thread each (2 cores). The inertial baseline is the same
+# integrator with the learned correction switched off (every weight zero). Rollouts run
+# with the wall contact (docs/evaluation.md); the n+1 / n+2 errors are the network alone.
+# The showcases (cocktail, hourglass, canyon; 3-D, default resolution) are rolled out for
+# SHOWCASE_STEPS steps (default 500 = 10 s, the issue's stability target).
+set -euo pipefail
+DATA=${1:-datasets/3d}
+STEPS=${SHOWCASE_STEPS:-500}
+export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
+python - <<'PY'
+import os, torch
+from dcdc.model.checkpoint import load_checkpoint, save_checkpoint
+net, ck = load_checkpoint("cconv3d")
+with torch.no_grad():
+    for p in net.parameters():
+        p.zero_()
+os.makedirs("out", exist_ok=True)
+save_checkpoint("out/inertial3d.pt", net, ck["data"], {"note": "all weights zero: no correction"})
+PY
+M="--model dcdc3d --model cconv3d"
+I="--model out/inertial3d.pt"
+ev() { dcdc evaluate --stride 10 --overwrite "$@" > /dev/null; }
+# the random validation and held-out-ratio scenes (ratios 10-20, outside training)
+ev $M $I --data "$DATA/valid" --json benchmarks/eval_3d_valid.json --plots out/eval_3d/valid &
+ev $M --data "$DATA/test_ratio" --json benchmarks/eval_3d_test_ratio.json --plots out/eval_3d/test_ratio &
+wait
+# the built-in scenes: the three showcases over $STEPS steps, lock exchange and dam break to the end
+ev $M --data "$DATA/test_scenes" --trajectory cocktail_3d --trajectory hourglass_3d --steps "$STEPS" \
+    --json benchmarks/eval_3d_showcases.json --plots out/eval_3d/showcases &
+ev $M $I --data "$DATA/test_scenes" --trajectory canyon_3d --trajectory lock_exchange_3d \
+    --trajectory dam_break_3d --steps "$STEPS" --json benchmarks/eval_3d_test_scenes.json \
+    --plots out/eval_3d/test_scenes &
+wait
+python benchmarks/eval_tables.py benchmarks/eval_3d_*.json
