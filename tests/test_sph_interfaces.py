@@ -61,3 +61,89 @@ def test_interface_force_conserves_momentum_and_separates():
     p = (mass[:, None] * sy.v).sum(0)
     assert np.abs(p).max() < 1e-9 * (mass[:, None] * np.abs(sy.v)).sum()
     assert metrics.neighbour_purity(sy.x, sy.phase, 3.5 * r) > before + 0.05
+
+
+# ---------------------------------------------------------------------------- "csf" model
+def _lattice_drop(dim, r=0.01, R=0.09):
+    from dcdc.sph.neighbourhood import build
+    s, h = 2 * r, 4 * r
+    V0 = lattice_volume(s, h, dim)
+    half = R + 3 * h
+    ax = np.arange(-half, half, s) + s / 2
+    x = np.stack(np.meshgrid(*([ax] * dim), indexing="ij"), -1).reshape(-1, dim)
+    dist = np.linalg.norm(x, axis=1)
+    phase = (dist < R).astype(np.int64)
+    nbh = build(x, np.full((1, dim), 100.0), np.ones(1), h, V0)
+    return x, dist, phase, nbh, h, V0
+
+
+def _csf_force(x, phase, nbh, h, V0, sigma, dim):
+    from dcdc.sph.interfaces import coefficients, csf_acceleration
+    ph = [Phase("amb", 1000.0), Phase("drop", 700.0)]
+    C = coefficients("csf", {"amb/drop": sigma}, ph, h, V0, dim)
+    rho0 = np.array([1000.0, 700.0])[phase]
+    a = csf_acceleration(phase, rho0, C, nbh.rs, nbh.idx, nbh.G, nbh.Sb, V0)
+    return (rho0 * V0)[:, None] * a
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_csf_force_on_a_lattice_drop_is_young_laplace_and_linear_in_sigma(dim):
+    """The capillary force summed over a drop cut from the rest lattice (both sides of the
+    interface) is σκ per area of interface (measured 0.99 in 2-D), points inward, is zero in
+    total (momentum) and scales with σ."""
+    import math
+    x, dist, phase, nbh, h, V0 = _lattice_drop(dim, R=0.09 if dim == 2 else 0.07)
+    n = int(phase.sum())
+    R = (n * V0 / math.pi) ** 0.5 if dim == 2 else (3 * n * V0 / (4 * math.pi)) ** (1 / 3)
+    area = 2 * math.pi * R if dim == 2 else 4 * math.pi * R * R
+    F1 = _csf_force(x, phase, nbh, h, V0, 1.0, dim)
+    F2 = _csf_force(x, phase, nbh, h, V0, 2.0, dim)
+    inward = -(F1 * x).sum(1) / np.maximum(dist, 1e-12)
+    assert inward.sum() / area / ((dim - 1) / R) == pytest.approx(1.0, abs=0.05)
+    assert np.abs(F1.sum(0)).max() < 1e-9 * np.abs(F1).sum()
+    assert np.allclose(F2, 2 * F1, rtol=1e-12, atol=1e-15)
+
+
+def test_csf_conserves_momentum_in_a_moving_emulsion():
+    """Two interleaved phases of unlike densities, no walls, no gravity: Σ m v stays 0."""
+    from dcdc.geometry import fill_box
+    from dcdc.particles import ParticleSystem
+    r = 0.02
+    x = fill_box([0, 0], [0.4, 0.4], 2 * r)
+    phase = np.random.default_rng(1).integers(0, 2, len(x))
+    sy = ParticleSystem(2, r, x, np.zeros_like(x), phase, [Phase("a", 1000.0), Phase("b", 500.0)],
+                        np.zeros((0, 2)), np.zeros((0, 2)), [0, 0], ([-1, -1], [2, 2]))
+    sim = Simulator(sy, SPHConfig(interfacial_tension={"a/b": 1.0}, interfacial_model="csf"))
+    for _ in range(10):
+        sim.advance(0.02)
+    mass = sy.rest_density
+    p = (mass[:, None] * sy.v).sum(0)
+    assert np.abs(sy.v).max() > 0
+    assert np.abs(p).max() < 1e-9 * (mass[:, None] * np.abs(sy.v)).sum()
+
+
+def test_interfacial_model_is_a_solver_setting_and_a_bad_one_is_a_one_line_error():
+    assert SPHConfig().interfacial_model == "pairwise"
+    assert SPHConfig.from_dict({"interfacial_model": "csf"}).interfacial_model == "csf"
+    with pytest.raises(DcdcError, match="interfacial_model must be one of pairwise, csf") as e:
+        SPHConfig.from_dict({"interfacial_model": "surface"})
+    assert "\n" not in str(e.value)
+    from dcdc.sph.interfaces import coefficients
+    with pytest.raises(DcdcError, match="interfacial_model"):
+        coefficients("surface", {"oil/water": 1.0}, PH, 0.1, 0.0025, 2)
+
+
+def test_the_cocktail_scene_pins_the_pairwise_model():
+    """The shipped cocktail datasets and networks were made with the pairwise repulsion."""
+    from dcdc.scene import get_scene
+    cfg = get_scene("cocktail").check_solver()
+    assert cfg.interfacial_model == "pairwise" and cfg.interfacial_tension
+
+
+@pytest.mark.xfail(strict=True, reason="csf without a background pressure: the interface band "
+                   "is under tension and clumps, Δp ≈ 0.46 σ/R (docs/sph.md, Known limits)")
+def test_laplace_quick_2d_csf():
+    from dcdc.sph.cases import laplace
+    rows = laplace(2, True, SPHConfig(interfacial_model="csf"))
+    assert rows[1].passed  # relaxes to round (measured 1.016)
+    assert rows[0].passed, rows[0].measured

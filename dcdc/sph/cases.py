@@ -422,7 +422,9 @@ def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
         if s.time > T - 0.5 - 1e-9:
             centre = s.system.x[drop].mean(0)
             dist = np.linalg.norm(s.system.x - centre, axis=1)
-            far = (~drop) & (dist > R + sim.h) & (np.min(np.minimum(s.system.x, W - s.system.x), 1) > sim.h)
+            # ambient beyond the band and half a support from the walls (a full support left
+            # no particle in the 3-D quick box)
+            far = (~drop) & (dist > R + sim.h) & (np.min(np.minimum(s.system.x, W - s.system.x), 1) > 0.5 * sim.h)
             p = s.pressure()
             p_in.append(float(p[drop & (dist < 0.5 * R)].mean()))
             p_out.append(float(p[far].mean()))

@@ -9,6 +9,7 @@ from ..errors import DcdcError
 
 SOLVERS = ("dfsph", "wcsph")
 BOUNDARIES = ("map", "particles")
+INTERFACIAL_MODELS = ("pairwise", "csf")
 ON_ESCAPE = ("error", "remove")
 
 
@@ -52,9 +53,13 @@ class SPHConfig:
         (Akinci et al. 2012 sums over the wall particles; their ripple grips fluid under
         pressure, docs/sph.md).
     surface_tension: Akinci et al. 2013 cohesion γ [m/s² per same-phase pair] (0 = off).
-    interfacial_tension: σ [N/m] per pair of phases, {"oil/water": 0.05, ...}: a pairwise
-        repulsion between unlike phases whose strength follows from σ
-        (:mod:`dcdc.sph.interfaces`); empty = none.
+    interfacial_tension: σ [N/m] per pair of phases (per unit depth in 2-D),
+        {"oil/water": 0.05, ...} (:mod:`dcdc.sph.interfaces`); empty = none.
+    interfacial_model: "pairwise" (default: a repulsion between unlike particles,
+        pairwise-force SPH; separates an emulsion, but its Laplace jump is 0.14-0.26 σ/R) or
+        "csf" (the capillary stress tensor of Lafaurie et al. 1994 in the SPH pair form of
+        Hu & Adams 2006; exact force on a lattice drop, but without a background pressure
+        its interface band is under tension and clumps: jump 0.46-0.69 of Young-Laplace; docs/sph.md).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -84,6 +89,7 @@ class SPHConfig:
     wall_buoyancy: bool = False
     surface_tension: float = 0.0
     interfacial_tension: dict = field(default_factory=dict)
+    interfacial_model: str = "pairwise"
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -94,7 +100,7 @@ class SPHConfig:
 
     def validate(self) -> "SPHConfig":
         for name, choices in (("solver", SOLVERS), ("boundary", BOUNDARIES),
-                              ("on_escape", ON_ESCAPE)):
+                              ("on_escape", ON_ESCAPE), ("interfacial_model", INTERFACIAL_MODELS)):
             if getattr(self, name) not in choices:
                 raise DcdcError(f"sph.{name} must be one of {', '.join(choices)} "
                                 f"(got {getattr(self, name)!r})")

@@ -3,24 +3,28 @@ from __future__ import annotations
 
 import numpy as np
 
+from .interfaces import csf_acceleration, pairwise_acceleration
 from .neighbourhood import Neighbourhood
 from .state import State
-from .terms import (cohesion_acceleration, interface_acceleration, mixture_density, viscosity_acceleration,
-                    xsph_velocity_change)
+from .terms import cohesion_acceleration, mixture_density, viscosity_acceleration, xsph_velocity_change
 
 
 def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
                               surface_tension: float) -> np.ndarray:
     """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + the walls'
-    hydrostatic share (``wall_buoyancy``) + interfacial tension (``s.pair_k``) + Akinci
-    cohesion."""
+    hydrostatic share (``wall_buoyancy``) + interfacial tension (``s.interface``,
+    :mod:`dcdc.sph.interfaces`) + Akinci cohesion."""
     a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, no_slip, nbh.rs, nbh.idx, nbh.G,
                                s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
     if nbh.wall_moment is not None:
         a += wall_hydrostatic_acceleration(s, nbh)
-    if s.pair_k is not None:
-        a += interface_acceleration(s.x, s.phase, s.rho0, s.pair_k, nbh.rs, nbh.idx, s.h, s.V0)
+    if s.interface is not None:
+        model, C = s.interface
+        if model == "csf":
+            a += csf_acceleration(s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0)
+        else:
+            a += pairwise_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, s.h, s.V0)
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
     return a

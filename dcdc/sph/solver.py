@@ -34,7 +34,7 @@ from ..particles import TIME_EPS, ParticleSystem
 from . import dfsph, volume_map, wcsph
 from .boundary import check_fluid_outside_walls, wall_volumes
 from .config import SPHConfig
-from .interfaces import pair_coefficients
+from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
 from .state import State
@@ -70,8 +70,12 @@ class Simulator:
         self._p_div = np.zeros(n)
         self._p_frame = np.zeros(n)  # Δt-weighted mean of p + p_div over the last frame
         self._sound_speed = cfg.sound_speed or _auto_sound_speed(system)
-        self._pair_k = pair_coefficients(cfg.interfacial_tension, system.phases, self.h, self.V0,
-                                         system.dim)
+        C = interfaces.coefficients(cfg.interfacial_model, cfg.interfacial_tension,
+                                    system.phases, self.h, self.V0, system.dim)
+        self._interface = None if C is None else (cfg.interfacial_model, C)
+        # Brackbill et al.'s capillary bound is the CSF's; "pairwise" keeps its old steps
+        self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
+                              if cfg.interfacial_model == "csf" else math.inf)
         self.stats: dict = {}
         self.totals = {"frames": 0, "substeps": 0, "iterations": 0, "divergence_iterations": 0,
                        "max_density_error": 0.0, "removed": 0}
@@ -187,7 +191,7 @@ class Simulator:
         sel = (lambda a: a) if active is None else (lambda a: a[active])
         return State(sel(sy.x), sel(sy.v), sel(sy.phase), sel(self._rho0), sel(self._mu),
                      sel(self._p), sel(self._p_div), sy.wall_x, self.Vb, sy.gravity, self.V0, self.h,
-                     self._pair_k)
+                     self._interface)
 
     def _store(self, active, s: State) -> None:
         if active is None:
@@ -205,7 +209,7 @@ class Simulator:
         if cfg.solver == "wcsph":
             vmax += wcsph.max_sound_speed(s.rho0, self._sound_speed)
         dx = cfg.cfl * 2.0 * self.system.radius
-        dt = min(cfg.dt_max, dx / max(vmax, cfg.speed_floor))
+        dt = min(cfg.dt_max, dx / max(vmax, cfg.speed_floor), self._capillary_dt)
         if g > 0:  # a particle starting at rest must not cross cfl·2r within one substep either
             dt = min(dt, math.sqrt(2.0 * dx / g))
         if dt < cfg.dt_min:

@@ -20,7 +20,8 @@ class State:
     gravity: np.ndarray  # [d]
     V0: float  # rest volume of a fluid particle (2r)^d
     h: float  # kernel support
-    pair_k: np.ndarray | None = None  # [phases, phases] interfacial repulsion k_ab [N]
+    # interfacial tension: (model, [phases, phases] coefficients of dcdc.sph.interfaces) or None
+    interface: tuple[str, np.ndarray] | None = None
 
     @property
     def dim(self) -> int:

@@ -22,6 +22,7 @@ Notation (docs/sph.md gives the derivation). Every fluid particle has the same r
       a_i = 2(d+2) V0/ρ0_i Σ_j μ_ij (v_ij·x_ij)/(|x_ij|² + 0.01 h²) G_ij  (+ no-slip walls)
 * cohesion (optional surface tension): Akinci, Akinci & Teschner (2013) eq. 1, same phase,
   spline scaled to a peak of 1 (γ in m/s² per pair).
+* interfacial tension between phase pairs: :mod:`dcdc.sph.interfaces`.
 
 All kernels run ``numba.prange`` over receivers; no Python loop touches a particle.
 """
@@ -308,38 +309,4 @@ def mixture_density(rho0, rs, idx, W):
             s += W[e] * rho0[idx[e]]
             w += W[e]
         out[i] = s / w if w > 0.0 else rho0[i]
-    return out
-
-
-@nb.njit(cache=True, parallel=True)
-def interface_acceleration(x, phase, rho0, K, rs, idx, h, V0):
-    """Pairwise interfacial tension between unlike phases (docs/sph.md, "Interfacial
-    tension"): a repulsion of the pair potential u_ab(r) = k_ab φ(r), k_ab <= 0, between
-    particles of phases a != b,
-        a_i = (1 / (ρ0_i V0)) Σ_{j: phase_j != phase_i} k_ab w(|x_ij| / h) (x_j - x_i)/|x_ij|
-    with w the cubic spline shape scaled to w(0) = 1. Pairwise and antisymmetric: momentum
-    is conserved and the force derives from a potential (no energy is created)."""
-    n, d = x.shape
-    out = np.zeros((n, d))
-    for i in nb.prange(n):
-        pi = phase[i]
-        m = rho0[i] * V0
-        for e in range(rs[i], rs[i + 1]):
-            j = idx[e]
-            pj = phase[j]
-            if pj == pi:
-                continue
-            k = K[pi, pj]
-            if k == 0.0:
-                continue
-            r2 = 0.0
-            for a in range(d):
-                t = x[j, a] - x[i, a]
-                r2 += t * t
-            r = math.sqrt(r2)
-            if r < 1e-9 * h or r >= h:
-                continue
-            f = k * w_of_r(r, h, 1.0) / (m * r)  # the spline's shape, w(0) = 1
-            for a in range(d):
-                out[i, a] += f * (x[j, a] - x[i, a])
     return out
