@@ -9,6 +9,7 @@ def test_round_trip():
     cfg = SPHConfig(solver="wcsph", cfl=0.3, viscosity=0.0)
     assert SPHConfig.from_dict(cfg.to_dict()) == cfg
     assert SPHConfig.from_dict({"dt_max": 1}).dt_max == 1.0  # int accepted for a float
+    assert SPHConfig.from_dict({"background_pressure": 250}).background_pressure == 250.0
 
 
 @pytest.mark.parametrize("d, word", [
@@ -20,6 +21,7 @@ def test_round_trip():
     ({"viscosity": float("nan")}, "viscosity"),
     ({"divergence_solve": "yes"}, "divergence_solve"),
     ({"dt_min": 1.0, "dt_max": 0.001}, "dt_min"),
+    ({"background_pressure": -1.0}, "background_pressure"),
 ])
 def test_bad_settings_name_the_problem(d, word):
     with pytest.raises(DcdcError, match=word) as e:

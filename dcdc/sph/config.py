@@ -59,7 +59,14 @@ class SPHConfig:
         pairwise-force SPH; separates an emulsion, but its Laplace jump is 0.14-0.26 σ/R) or
         "csf" (the capillary stress tensor of Lafaurie et al. 1994 in the SPH pair form of
         Hu & Adams 2006; exact force on a lattice drop, but without a background pressure
-        its interface band is under tension and clumps: jump 0.46-0.69 of Young-Laplace; docs/sph.md).
+        its interface band is under tension and clumps: jump 0.46-0.69 of Young-Laplace;
+        with ``background_pressure`` = σ/h 0.79-0.83; docs/sph.md).
+    background_pressure: p_b [Pa] added to the pressure in the pressure force only (Hu &
+        Adams 2006; Adami, Hu & Adams 2010): a_i = -(2 p_b/ρ0_i) ∇ψ_i, the walls carrying
+        p_b too (:func:`dcdc.sph.terms.background_acceleration`). It changes neither the
+        pressure solve nor :meth:`Simulator.pressure`; it keeps a band whose capillary
+        stress is tensile ("csf") from clumping. Only for scenes without a free surface
+        (there ∇ψ points inward and p_b would blow the surface apart). 0 = off (default).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -90,6 +97,7 @@ class SPHConfig:
     surface_tension: float = 0.0
     interfacial_tension: dict = field(default_factory=dict)
     interfacial_model: str = "pairwise"
+    background_pressure: float = 0.0
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -108,7 +116,8 @@ class SPHConfig:
                     "divergence_tolerance", "omega", "stiffness_exponent", "max_speed")
         for name in positive:
             _check_number(self, name, lambda v: v > 0, "> 0")
-        for name in ("viscosity", "xsph", "surface_tension", "sound_speed", "correction_speed"):
+        for name in ("viscosity", "xsph", "surface_tension", "sound_speed", "correction_speed",
+                     "background_pressure"):
             _check_number(self, name, lambda v: v >= 0, ">= 0")
         for name in ("min_iterations", "max_iterations"):
             v = getattr(self, name)

@@ -4,7 +4,11 @@ hydrodynamics", Alg. 1) on the number-density, volume-symmetric multiphase formu
 One substep of length Δt:
 1. divergence-free solve: pressures p_div >= 0 with  Dψ/Dt(v + Δt a(p_div)) = 0  where the
    flow compresses (particles with a full neighbourhood only, as in DFSPH);
-2. non-pressure forces: v* = v + Δt (g + viscosity + cohesion);
+2. non-pressure forces: v* = v + Δt (g + viscosity + cohesion + interfacial tension), plus
+   the force of the optional uniform background pressure p_b (``SPHConfig.background_pressure``,
+   :func:`dcdc.sph.terms.background_acceleration`): a constant part of the pressure force,
+   applied here so that the constant-density solve below sees (and corrects) any compression
+   it causes; the solves themselves and the reported pressure are unchanged;
 3. constant-density solve: pressures p >= 0 with  ψ + Δt Dψ/Dt(v* + Δt a(p)) = ψ_target,
    ψ_target = max(1, ψ - Δt u_c/2r): new compression is stopped in full, a density error
    already present is removed at most at the rate u_c/2r (``SPHConfig.correction_speed``);
@@ -111,7 +115,8 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
         it_div, err_div, a = pressure_solve(s, nbh, s.p_div, rate, dt, 0.0, mask,
                                             cfg.divergence_tolerance / dt, diag, cfg)
         s.v += dt * a
-    s.v += dt * non_pressure_acceleration(s, nbh, cfg.no_slip, cfg.surface_tension)
+    s.v += dt * non_pressure_acceleration(s, nbh, cfg.no_slip, cfg.surface_tension,
+                                          cfg.background_pressure)
     smooth_velocity(s, nbh, cfg.xsph)
     rate = compression_rate(s.v, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
     psi_star = nbh.psi + dt * rate

@@ -6,14 +6,18 @@ import numpy as np
 from .interfaces import csf_acceleration, pairwise_acceleration
 from .neighbourhood import Neighbourhood
 from .state import State
-from .terms import cohesion_acceleration, mixture_density, viscosity_acceleration, xsph_velocity_change
+from .terms import (background_acceleration, cohesion_acceleration, mixture_density,
+                    viscosity_acceleration, xsph_velocity_change)
 
 
 def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
-                              surface_tension: float) -> np.ndarray:
+                              surface_tension: float,
+                              background_pressure: float = 0.0) -> np.ndarray:
     """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + the walls'
     hydrostatic share (``wall_buoyancy``) + interfacial tension (``s.interface``,
-    :mod:`dcdc.sph.interfaces`) + Akinci cohesion."""
+    :mod:`dcdc.sph.interfaces`) + Akinci cohesion + the force of a uniform background
+    pressure (:func:`dcdc.sph.terms.background_acceleration`; a constant part of the
+    pressure force, applied here so that the pressure solve that follows sees it)."""
     a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, no_slip, nbh.rs, nbh.idx, nbh.G,
                                s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
@@ -27,6 +31,9 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
             a += pairwise_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, s.h, s.V0)
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
+    if background_pressure > 0:
+        a += background_acceleration(background_pressure, s.rho0, nbh.rs, nbh.idx, nbh.G,
+                                     nbh.Sb, s.V0)
     return a
 
 

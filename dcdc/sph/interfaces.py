@@ -41,8 +41,11 @@ level set by the clamp), so the band is in net tension and its particles clump (
 tensile instability, Swegle et al. 1995): like neighbours 0.81 spacings apart, unlike ones
 1.07, ∫|∇c| falls to 0.78 and the force to 0.59 σκ. Under a hydrostatic head larger than
 σ|∇c| the band stays ordered (force 0.94-0.95 σκ). Hu & Adams (2006) and Adami et al.
-(2010) add a background pressure for this; this solver has none (docs/sph.md, "Known
-limits"), so "csf" is not the default.
+(2010) add a background pressure for this: ``SPHConfig.background_pressure`` = σ/h (the
+band's peak tension σ|∇c| on the lattice, closed scenes only) keeps the band ordered (force
+0.86-0.94 σκ), but the reported jump is then 0.79-0.83 σ/R and falls as p_b grows, and the
+3-D quick drop is not round in 1.5 s (docs/sph.md, "Background pressure"), so "csf" is
+not the default.
 
 **"pairwise": a repulsion between unlike particles** (pairwise-force SPH, Tartakovsky &
 Meakin 2005; Tartakovsky & Panchenko 2016, J. Comput. Phys. 305) of the pair potential

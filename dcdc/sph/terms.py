@@ -23,6 +23,8 @@ Notation (docs/sph.md gives the derivation). Every fluid particle has the same r
 * cohesion (optional surface tension): Akinci, Akinci & Teschner (2013) eq. 1, same phase,
   spline scaled to a peak of 1 (γ in m/s² per pair).
 * interfacial tension between phase pairs: :mod:`dcdc.sph.interfaces`.
+* optional background pressure p_b (closed scenes only): a_i = -(2 p_b/ρ0_i) ∇ψ_i
+  (:func:`background_acceleration`).
 
 All kernels run ``numba.prange`` over receivers; no Python loop touches a particle.
 """
@@ -143,6 +145,34 @@ def pressure_acceleration(p, rho0, rs, idx, G, Sb, V0, out, beta=1.0):
         out[i, 1] = c * (V0 * a1 + cb * Sb[i, 1])
         if d == 3:
             out[i, 2] = c * (V0 * a2 + cb * Sb[i, 2])
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def background_acceleration(pb, rho0, rs, idx, G, Sb, V0):
+    """The force of a uniform background pressure p_b (``SPHConfig.background_pressure``):
+    the pressure force with p_i = p_j = p_b and the wall carrying the same pressure as the
+    fluid next to it (mirrored, β = 2; the dummy-wall pressure of Adami, Hu & Adams 2012),
+        a_i = -(1/ρ0_i) [V0 Σ_j 2 p_b G_ij + 2 p_b S_b,i] = -(2 p_b / ρ0_i) ∇ψ_i.
+    Zero wherever ψ is uniform (a rest lattice, walls included), each fluid pair
+    antisymmetric (momentum conserving), and the gradient of the potential
+    p_b V0 Σ_i (ψ_i + Ψ_b,i) of static walls (conservative). Hu & Adams (2006) and Adami,
+    Hu & Adams (2010) add it to keep a fluid whose capillary stress is tensile from
+    clumping; it is not valid at a free surface (there ∇ψ ≠ 0 and it pushes outward)."""
+    n, d = Sb.shape
+    out = np.empty((n, d))
+    for i in nb.prange(n):
+        a0 = a1 = a2 = 0.0
+        for e in range(rs[i], rs[i + 1]):
+            a0 += G[e, 0]
+            a1 += G[e, 1]
+            if d == 3:
+                a2 += G[e, 2]
+        c = -2.0 * pb / rho0[i]
+        out[i, 0] = c * (V0 * a0 + Sb[i, 0])
+        out[i, 1] = c * (V0 * a1 + Sb[i, 1])
+        if d == 3:
+            out[i, 2] = c * (V0 * a2 + Sb[i, 2])
     return out
 
 

@@ -31,7 +31,8 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig, c: float) -
     gamma = cfg.stiffness_exponent
     B = stiffness(s.rho0, c, gamma)
     s.p[:] = B * np.maximum(nbh.psi ** gamma - 1.0, 0.0)
-    a = non_pressure_acceleration(s, nbh, cfg.no_slip, cfg.surface_tension)
+    a = non_pressure_acceleration(s, nbh, cfg.no_slip, cfg.surface_tension,
+                                  cfg.background_pressure)
     ap = np.empty_like(a)
     pressure_acceleration(s.p, s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, ap)
     s.v += dt * (a + ap)
