@@ -184,3 +184,27 @@ def test_mesh_walls_exported_as_surfaces(tmp_path):
     export_trajectory(open_trajectory(lost), "ply", tmp_path / "q", warn=notes.append)
     assert len(notes) == 1 and "gone.obj not found" in notes[0]
     assert (tmp_path / "q" / "walls.ply").exists()
+
+
+def test_missing_mesh_in_scene_without_domain_is_named(tmp_path):
+    """A stored scene without [domain] (dcdc derives it from walls and fluid) whose wall
+    mesh is missing: the note names that mesh, not the whole scene as unreadable; the
+    trajectory's wall particles are still exported."""
+    from dcdc.render.benchmark import block_trajectory
+    from dcdc.render.export import export_trajectory
+    from dcdc.render.walls import wall_meshes
+
+    text = MESH_SCENE.replace("[domain]\nmin = [-1.0, -1.0, -1.0]\nmax = [1.0, 1.0, 1.0]\n", "")
+    assert "[domain]" not in text
+    lost = block_trajectory(tmp_path / "l.h5", 3, 60, frames=1,
+                            attrs={"scene_toml": text.replace("asset:rock.obj", "gone.obj")})
+    meshes, notes = wall_meshes(open_trajectory(lost))
+    assert meshes == [] and len(notes) == 1
+    assert "wall rock: mesh gone.obj not found" in notes[0] and "unreadable" not in notes[0]
+    notes = []
+    export_trajectory(open_trajectory(lost), "ply", tmp_path / "q", warn=notes.append)
+    assert len(notes) == 1 and "gone.obj not found" in notes[0]
+    assert (tmp_path / "q" / "walls.ply").exists()
+    kept = block_trajectory(tmp_path / "k.h5", 3, 60, frames=1, attrs={"scene_toml": text})
+    meshes, notes = wall_meshes(open_trajectory(kept))
+    assert [m.name for m in meshes] == ["rock"] and notes == []

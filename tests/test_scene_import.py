@@ -210,6 +210,36 @@ def test_splishsplash_box_emitter_keeps_its_orientation(tmp_path):
     assert len(layer) == 8 and np.allclose(np.ptp(layer, axis=0), [0, 0.15, 0.05])
 
 
+def test_splishsplash_method_blocks_and_blocks_in_walls(tmp_path):
+    """Newer files: the chosen pressure solver's and force methods' blocks are read (other
+    solvers' blocks are unused); a block reaching into a solid becomes a fill of its box
+    inside the container, a block mostly in a solid is left out, one warning each."""
+    scene = {"Configuration": {"particleRadius": 0.025, "simulationMethod": 4, "boundaryHandlingMethod": 0,
+                               "DFSPH": {"minIterations": 2, "maxIterations": 50, "maxError": 0.05},
+                               "WCSPH": {"stiffness": 50000, "exponent": 7}},
+             "Materials": [{"id": "a", "viscosityMethod": 1, "Standard viscosity": {"viscosity": 0.02},
+                            "Weiler et al. 2018": {"viscosity": 5}},
+                           {"id": "b", "density0": 500, "vorticityMethod": 1,
+                            "Bender et al. 2017": {"vorticity": 0.1, "viscosityOmega": 0.05}}],
+             "RigidBodies": [{"geometryFile": BOX}, {"geometryFile": CUBE, "translation": [0, -0.4, 0]}],
+             "FluidBlocks": [{"id": "a", "start": [-0.45, -0.45, -0.45], "end": [-0.1, 0.0, 0.45]},
+                             {"id": "b", "start": [-0.05, -0.45, -0.05], "end": [0.3, -0.2, 0.05]},
+                             {"id": "b", "start": [-0.1, -0.5, -0.1], "end": [0.1, -0.3, 0.1]}]}
+    src = tmp_path / "blocks.json"
+    src.write_text(json.dumps(scene))
+    res, sc = imported(src, tmp_path)
+    d = sc.data
+    assert d["solver"]["max_iterations"] == 50 and d["solver"]["density_tolerance"] == pytest.approx(5e-4)
+    assert d["phases"]["a"]["viscosity"] == 0.02 and d["phases"]["b"]["density"] == 500
+    assert d["walls"]["UnitBox"]["hollow"] is True and d["walls"]["SmallCube"]["hollow"] is False
+    assert [(f["shape"], f.get("inside")) for f in d["fluid"]] == [("box", None), ("fill", "UnitBox")]
+    w = "\n".join(res.warnings)
+    assert "vorticity (method 1, coefficient 0.1) not mapped" in w
+    assert "FluidBlocks[1]: reaches into RigidBodies[1] (SmallCube.obj)" in w
+    assert "FluidBlocks[2]: lies mostly in RigidBodies[1] (SmallCube.obj)" in w and "left out" in w
+    assert sc.realize().n_fluid > 0
+
+
 def _multiphase(path: Path) -> bool:
     """A SPlisHSPlasH scene whose fluid items use two or more material ids."""
     try:
@@ -223,21 +253,50 @@ def _multiphase(path: Path) -> bool:
     return len({x.get("id", "Fluid") for x in items}) > 1
 
 
-@pytest.mark.skipif(not __import__("importlib").util.find_spec("pysplishsplash"),
-                    reason="pysplishsplash is not installed")
+def _shipped_scene_folders():
+    """SPlisHSPlasH ``Scenes`` folders to test, without importing pysplishsplash (its import
+    can crash the process): those under ``$DCDC_SPLISHSPLASH_DATA`` (a SPlisHSPlasH ``data/``
+    folder), failing that the ones the installed pysplishsplash distribution lists (its
+    wheel installs ``<prefix>/bin/data/Scenes``); (folders, where they were looked for)."""
+    import importlib.metadata
+    import os
+    tried = []
+    env = os.environ.get("DCDC_SPLISHSPLASH_DATA")
+    if env:
+        root = Path(env).expanduser()
+        folders = sorted({p.parent for p in root.rglob("*.json") if p.parent.name == "Scenes"})
+        if folders:
+            return folders, f"DCDC_SPLISHSPLASH_DATA={root}"
+        tried.append(f"DCDC_SPLISHSPLASH_DATA={root} (no Scenes/*.json under it)")
+    else:
+        tried.append("DCDC_SPLISHSPLASH_DATA (unset)")
+    try:
+        files = importlib.metadata.distribution("pysplishsplash").files or []
+    except importlib.metadata.PackageNotFoundError:
+        files = None
+    folders = sorted({Path(f.locate()).resolve().parent for f in files or []
+                      if f.suffix == ".json" and f.parent.name == "Scenes"})
+    folders = [p for p in folders if p.is_dir()]
+    if folders:
+        return folders, "the installed pysplishsplash distribution's files"
+    tried.append("pysplishsplash " + ("(not installed)" if files is None else "(its files list no Scenes)"))
+    return [], ", ".join(tried)
+
+
 def test_shipped_splishsplash_multiphase_scenes(tmp_path):
-    """Every multiphase scene in pysplishsplash's data/Scenes imports and validates."""
-    import pysplishsplash
-    root = Path(pysplishsplash.__file__).resolve().parent
-    folders = sorted({p.parent for p in root.rglob("*.json") if p.parent.name == "Scenes"})
+    """Every multiphase scene in SPlisHSPlasH's data/Scenes imports, validates and realizes.
+    Set DCDC_SPLISHSPLASH_DATA=path/to/SPlisHSPlasH/data, or install pysplishsplash."""
+    folders, where = _shipped_scene_folders()
     if not folders:
-        pytest.skip(f"no data/Scenes folder in {root}")
+        pytest.skip(f"no SPlisHSPlasH data/Scenes folder: tried {where}; set "
+                    "DCDC_SPLISHSPLASH_DATA=path/to/SPlisHSPlasH/data")
     scenes = [p for f in folders for p in sorted(f.glob("*.json")) if _multiphase(p)]
     if not scenes:
-        pytest.skip(f"no multiphase scenes in {', '.join(map(str, folders))}")
+        pytest.skip(f"no multiphase scenes (fluid items of 2+ material ids) in "
+                    f"{', '.join(map(str, folders))} ({where})")
     for p in scenes:
         res, sc = imported(p, tmp_path, p.stem + ".toml")
-        assert sc.dim in (2, 3) and sc.data["phases"]
+        assert sc.dim in (2, 3) and sc.data["phases"], p.name
         assert sc.realize(resolution=0.3).n_fluid > 0, p.name
 
 

@@ -10,19 +10,23 @@ What maps:
   ``cflMinTimeStepSize`` → dt_max / dt_min, ``maxIterations`` → max_iterations, ``maxError``
   / ``maxErrorV`` (percent) → density_tolerance / divergence_tolerance, ``enableDivergenceSolver``
   → divergence_solve, ``boundaryHandlingMethod`` 0 (Akinci 2012 particles) → boundary =
-  "particles", 2 (volume maps) → "map".
+  "particles", 2 (volume maps) → "map". Newer files keep the solver's parameters in a
+  block named for it (``"DFSPH": {...}``): the chosen solver's block is read.
 * ``Materials`` (and the older ``Fluid`` / per-id blocks and material keys in
   ``Configuration``): one phase per id, ``density0`` (default 1000) → density,
   ``viscosity`` with ``viscosityMethod`` 1 (standard, a kinematic viscosity) → viscosity;
-  ``maxEmitterParticles`` caps that phase's emitters.
+  ``maxEmitterParticles`` caps that phase's emitters. Newer files keep each force method's
+  parameters in a block named for it (``"Standard viscosity": {"viscosity": ...}``): the
+  chosen methods' blocks are read, and the newer method numbers apply (no XSPH viscosity).
 * ``RigidBodies`` (static; a dynamic one becomes a static wall, with a warning):
   ``geometryFile`` with ``scale`` (per axis), ``rotationAxis`` / ``rotationAngle``
   (radians), ``translation`` → a ``mesh`` wall. A closed mesh is a container (``hollow``)
-  when ``mapInvert`` says so — with particle boundaries, or without ``mapInvert``, when the
-  fluid lies inside it — else a solid; an open mesh is a 4r shell on the side away from
+  when ``mapInvert`` says so — with particle boundaries, or without ``mapInvert``, when most
+  of the fluid (by volume) lies inside it — else a solid; an open mesh is a 4r shell on the side away from
   the fluid.
 * ``FluidBlocks``: ``start`` / ``end`` scaled and translated → a ``box`` block,
-  ``initialVelocity`` → velocity; ``FluidModels`` with a mesh ``particleFile`` (OBJ, PLY,
+  ``initialVelocity`` → velocity (a block reaching into a closed wall: a ``fill`` of its box
+  inside its container, without the particles in walls; one mostly in a wall: left out); ``FluidModels`` with a mesh ``particleFile`` (OBJ, PLY,
   STL, OFF) → a ``mesh`` block (scaled, rotated, translated).
 * ``Emitters``: position ``translation``, direction the first column of the rotation (or
   the older ``direction``), ``velocity`` → speed, ``emitStartTime`` / ``emitEndTime`` →
@@ -71,7 +75,8 @@ CONFIG_KEYS = {"particleRadius", "gravitation", "stopAt", "dataExportFPS", "simu
                "cflMethod", "cflFactor", "cflMinTimeStepSize", "cflMaxTimeStepSize", "maxIterations",
                "maxError", "maxIterationsV", "maxErrorV", "enableDivergenceSolver",
                "boundaryHandlingMethod", "exponent", "stiffness", "sim2D", "timeStepSize",
-               "velocityUpdateMethod", "kernel", "gradKernel"}
+               "velocityUpdateMethod", "kernel", "gradKernel", "minIterations", "lambda",
+               "pressureClamping"}
 MATERIAL_VIEWER = {"colorField", "colorMapType", "renderMinValue", "renderMaxValue", "visible",
                    "comment"}
 MATERIAL_KEYS = {"id", "density0", "viscosity", "viscosityMethod", "viscosityBoundary",
@@ -99,8 +104,27 @@ FIELD_KEYS = {"particleField", "translation", "rotationAxis", "rotationAngle", "
 MESH_EXT = (".obj", ".ply", ".stl", ".off")
 METHODS = {0: "WCSPH", 1: "PCISPH", 2: "PBF", 3: "IISPH", 4: "DFSPH", 5: "Projective Fluids",
            6: "ICSPH"}
+# the parameters of the pressure solver (Configuration) and of the non-pressure forces (a
+# material) in newer files: a block named for the method; only the chosen method's is read
+SOLVER_SECTION_KEYS = {"stiffness", "exponent", "minIterations", "maxIterations", "maxError",
+                       "maxIterationsV", "maxErrorV", "enableDivergenceSolver",
+                       "velocityUpdateMethod", "lambda", "pressureClamping"}
+# older files (flat material keys): XSPH was viscosity method 2
 VISCOSITY = {1: "standard", 2: "XSPH", 3: "Bender and Koschier 2017", 4: "Peer et al. 2015",
              5: "Peer et al. 2016", 6: "Takahashi et al. 2015", 7: "Weiler et al. 2018"}
+# newer files (method blocks; XSPH is its own block): the method numbers and block names
+FORCE_METHODS = {
+    "viscosityMethod": {1: "Standard viscosity", 2: "Bender and Koschier 2017", 3: "Peer et al. 2015",
+                        4: "Peer et al. 2016", 5: "Takahashi et al. 2015 (improved)",
+                        6: "Weiler et al. 2018"},
+    "vorticityMethod": {1: "Bender et al. 2017", 2: "Vorticity confinement", 3: "Liu et al. 2021"},
+    "dragMethod": {1: "Macklin et al. 2014", 2: "Gissler et al. 2017"},
+    "surfaceTensionMethod": {1: "Becker & Teschner 2007", 2: "Akinci et al. 2013", 3: "He et al. 2014",
+                             4: "Jeske et al. 2023", 5: "Zorilla, Ritter, et al. 2020"},
+    "elasticityMethod": {1: "Becker et al. 2009", 2: "Peer et al. 2018", 3: "Kugelstadt et al. 2021"}}
+MATERIAL_SECTIONS = {"XSPH"} | {n for m in FORCE_METHODS.values() for n in m.values()}
+# parameters of methods dcdc warns about as a whole (their blocks are not checked key by key)
+FORCE_WARNED = {"vorticityMethod", "dragMethod", "surfaceTensionMethod", "elasticityMethod"}
 
 
 def is_splishsplash(data) -> bool:
@@ -151,6 +175,45 @@ def _placed(scale, t, axis, deg) -> dict:
     return d
 
 
+def _config(im: _Import, cfg: dict) -> dict:
+    """``Configuration`` with its keys checked and the chosen pressure solver's block (newer
+    files: ``"DFSPH": {"maxError": ...}``) read into it; other solvers' blocks are unused."""
+    rd = im.rd
+    flat = {k: v for k, v in cfg.items() if k not in METHODS.values()}
+    im.keys(flat, "Configuration", CONFIG_KEYS | MATERIAL_KEYS, CONFIG_VIEWER | MATERIAL_VIEWER,
+            "Configuration")
+    active = METHODS.get(rd.integer(flat, "simulationMethod", "Configuration", 4))
+    for name in METHODS.values():
+        if name in cfg:
+            sec = rd.table(cfg[name], f"Configuration.{name}")
+            if name == active:
+                im.keys(sec, f"Configuration.{name}", SOLVER_SECTION_KEYS, {"comment"},
+                        f"{name} parameter")
+                flat.update(sec)
+    return flat
+
+
+def _material(im: _Import, m: dict, where: str) -> tuple[dict, bool]:
+    """A material's keys checked, the blocks of its chosen methods (newer files: e.g.
+    ``"Standard viscosity": {"viscosity": 0.01}``) read into it; (flat table, whether it
+    had method blocks: then the newer method numbers apply)."""
+    rd = im.rd
+    flat = {k: v for k, v in m.items() if k not in MATERIAL_SECTIONS}
+    im.keys(flat, where, MATERIAL_KEYS, MATERIAL_VIEWER, "material")
+    blocks = {k: rd.table(v, f"{where}.{k}") for k, v in m.items() if k in MATERIAL_SECTIONS}
+    if not blocks:
+        return flat, False
+    chosen = [("XSPH", False)] + [(FORCE_METHODS[key].get(rd.integer(flat, key, where, 0)),
+                                   key in FORCE_WARNED) for key in FORCE_METHODS]
+    for name, warned in chosen:
+        if name in blocks:
+            sec = blocks[name]
+            if not warned:  # a method that dcdc reads: its keys must be ones dcdc knows
+                im.keys(sec, f"{where}.{name}", MATERIAL_KEYS, {"comment"}, f"{name} parameter")
+            flat.update(sec)
+    return flat, True
+
+
 def _materials(im: _Import, data: dict, ids_used: set) -> dict:
     """id -> (where, parameter table), later definitions of an id overriding earlier ones."""
     rd = im.rd
@@ -159,28 +222,37 @@ def _materials(im: _Import, data: dict, ids_used: set) -> dict:
     legacy = {k: v for k, v in cfg.items() if k in MATERIAL_KEYS or any(
         isinstance(p, re.Pattern) and p.match(k) for p in MATERIAL_KEYS) or k in MATERIAL_VIEWER - {"comment"}}
     if legacy:  # older files keep the fluid's parameters in Configuration
-        out[DEFAULT_ID] = ("Configuration", legacy)
+        out[DEFAULT_ID] = ("Configuration", legacy, False)
     for k in [DEFAULT_ID] + sorted(ids_used - {DEFAULT_ID}):
         if k in data:  # older per-id parameter blocks at the top level
-            m = rd.table(data[k], k)
-            im.keys(m, k, MATERIAL_KEYS, MATERIAL_VIEWER, "material")
-            out[k] = (k, {**out.get(k, ("", {}))[1], **m})
+            m, new = _material(im, rd.table(data[k], k), k)
+            out[k] = (k, {**out.get(k, ("", {}, False))[1], **m}, new)
     for i, m in enumerate(rd.items(data, "Materials")):
         where = f"Materials[{i}]"
-        im.keys(m, where, MATERIAL_KEYS, MATERIAL_VIEWER, "material")
-        mid = rd.string(m, "id", where, DEFAULT_ID)
-        out[mid] = (where, m)
-    return out
+        flat, new = _material(im, m, where)
+        mid = rd.string(flat, "id", where, DEFAULT_ID)
+        out[mid] = (where, flat, new)
+    # method blocks anywhere (a material's, the pressure solver's): the newer method numbers
+    new = any(v[2] for v in out.values()) or any(k in cfg for k in METHODS.values())
+    return {k: (w, m, new) for k, (w, m, _) in out.items()}
 
 
-def _phase(im: _Import, mid: str, where: str, m: dict) -> tuple[dict, int | None]:
-    """The dcdc phase of a material and its emitter particle cap."""
+def _phase(im: _Import, mid: str, where: str, m: dict, new: bool = False) -> tuple[dict, int | None]:
+    """The dcdc phase of a material and its emitter particle cap (``new``: the material has
+    method blocks, so the newer viscosity method numbers, without XSPH, apply)."""
     rd = im.rd
     label = f"{where} ({mid})"
     phase = {"density": rd.number(m, "density0", where, 1000.0, positive=True)}
     method = rd.integer(m, "viscosityMethod", where, 0)
     nu = rd.number(m, "viscosity", where, None, nonneg=True)
-    if method and nu is not None:
+    if new and method and method not in FORCE_METHODS["viscosityMethod"]:
+        im.warn(f"{label}: viscosity method {method} unknown; the phase keeps dcdc's default viscosity")
+    elif new and method and nu is not None:  # XSPH is no viscosity method in these files
+        phase["viscosity"] = nu
+        if method != 1:
+            im.warn(f"{label}: viscosity method {method} ({FORCE_METHODS['viscosityMethod'][method]}) "
+                    f"mapped to dcdc's explicit viscosity with ν = {nu:g} m²/s")
+    elif method and nu is not None:
         name = VISCOSITY.get(method, f"method {method}")
         if method == 2:
             im.warn(f"{label}: XSPH viscosity coefficient {nu:g} (dimensionless) not mapped; the "
@@ -201,6 +273,10 @@ def _phase(im: _Import, mid: str, where: str, m: dict) -> tuple[dict, int | None
                      "[solver.interfacial_tension])") if what == "surface tension" else ""
             im.warn(f"{label}: {what} (method {k}" + (f", coefficient {c}" if c is not None else "")
                     + f") not mapped{extra}")
+    xsph = rd.number(m, "xsph", where, 0.0, nonneg=True)
+    if xsph:
+        im.warn(f"{label}: XSPH velocity filter {xsph:g} not mapped (dcdc's is [solver] xsph, "
+                "one for all phases)")
     if rd.flag(m, "emitterReuseParticles", where, False):
         im.warn(f"{label}: emitterReuseParticles not mapped (dcdc does not recycle particles that "
                 "leave the emitter box)")
@@ -274,11 +350,62 @@ def _solver(im: _Import, cfg: dict) -> dict:
     return out
 
 
-def _inside_any(mesh, points) -> bool:
+def _inside_most(mesh, points, weights) -> bool:
+    """Whether most of the fluid (``points`` in its items, weighted by their volumes; by
+    count when all weigh nothing) lies inside the closed ``mesh``: particle boundaries have
+    fluid on both sides, dcdc's walls on one."""
     from ...geometry import mesh as gm
     if not points:
         return False
-    return bool(gm.MeshDistance(mesh).inside(np.asarray(points, dtype=np.float64)).any())
+    inside = gm.MeshDistance(mesh).inside(np.asarray(points, dtype=np.float64))
+    w = np.asarray(weights, dtype=np.float64)
+    w = w if w.sum() > 0 else np.ones(len(w))
+    return bool(w[inside].sum() > w[~inside].sum())
+
+
+CLIP_POINTS = 200_000  # blocks with more lattice points than this are not checked
+
+
+def _clip_blocks(im: _Import, fluids: list, boxes: list, placed: list, dim: int, r: float):
+    """A box block that reaches into a closed wall (a solid's inside, a container's outside)
+    becomes a ``fill`` of its box inside the container that holds it, which leaves out the
+    particles in walls (SPlisHSPlasH keeps them and pushes them out); a block mostly in a
+    wall is left out (SPlisHSPlasH's particle boundaries hold fluid on both sides of a body,
+    dcdc's walls on one). One warning each."""
+    from ...geometry import mesh as gm
+    if not placed:
+        return
+    dists = [(name, label, gm.MeshDistance(m), hollow) for name, label, m, hollow in placed]
+    sp = 2 * r
+    for k, lo, hi in boxes:
+        n = np.floor((hi - lo) / sp + 1e-9).astype(int)[:dim]
+        if (n < 1).any() or np.prod(n) > CLIP_POINTS:
+            continue
+        axes = [lo[a] + r + sp * np.arange(n[a]) for a in range(dim)]
+        pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim)
+        if dim == 2:
+            pts = np.c_[pts, np.zeros(len(pts))]
+        walled = [(label, md.inside(pts) != hollow) for _, label, md, hollow in dists]
+        hit = next((label for label, w in walled if w.any()), None)
+        if hit is None:
+            continue
+        f = fluids[k]
+        if np.logical_or.reduce([w for _, w in walled]).mean() > 0.5:
+            im.warn(f"{f['name']}: lies mostly in {hit} (SPlisHSPlasH's particle boundaries hold "
+                    "fluid on either side of a body, dcdc's walls on one); left out")
+            fluids[k] = None
+            continue
+        mid = 0.5 * (lo + hi)
+        box = next((name for name, _, md, hollow in dists
+                    if hollow and md.inside(mid[None, :])[0]), None)
+        if box is None:
+            im.warn(f"{f['name']}: reaches into {hit} and lies in no closed container that dcdc "
+                    "could fill instead; kept as a box (the scene will not validate)")
+            continue
+        fluids[k] = {"phase": f["phase"], "shape": "fill", "inside": box, "min": f["min"],
+                     "max": f["max"], "velocity": f["velocity"], "name": f["name"]}
+        im.warn(f"{f['name']}: reaches into {hit}; written as a fill of its box inside walls.{box} "
+                "without the particles in walls (SPlisHSPlasH keeps them and pushes them out)")
 
 
 def _front_side(mesh, points) -> bool:
@@ -306,9 +433,7 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
         if k not in SECTIONS | PBD_SECTIONS and k not in ids_used:
             rd.fail("the scene:", f"unknown top-level key {k!r} (not a SPlisHSPlasH section dcdc "
                     "knows, nor the id of a fluid)")
-    cfg = rd.table(data.get("Configuration", {}), "Configuration")
-    im.keys(cfg, "Configuration", CONFIG_KEYS | MATERIAL_KEYS, CONFIG_VIEWER | MATERIAL_VIEWER,
-            "Configuration")
+    cfg = _config(im, rd.table(data.get("Configuration", {}), "Configuration"))
     r = rd.number(cfg, "particleRadius", "Configuration", 0.025, positive=True)
     sp = 2 * r
     stop_at = rd.number(cfg, "stopAt", "Configuration", None)
@@ -331,13 +456,14 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
     mats = _materials(im, data, ids_used)
     phases, names, caps = {}, {}, {}
     for mid in [k for k in mats if k in ids_used] + sorted(ids_used - set(mats)):
-        where, m = mats.get(mid, (f"id {mid!r}", {}))
-        ph, cap = _phase(im, mid, where, m)
+        where, m, new = mats.get(mid, (f"id {mid!r}", {}, False))
+        ph, cap = _phase(im, mid, where, m, new)
         names[mid] = unique(scene_name(mid, "fluid"), phases)
         phases[names[mid]] = ph
         caps[mid] = cap
 
-    refs = []  # points inside the fluid (which side of a wall it is on)
+    refs, weights = [], []  # points inside the fluid (which side of a wall it is on), volumes
+    boxes = []  # (index into fluids, 3-D lo, hi) of the blocks
     fluids = []
     for i, b in enumerate(blocks):
         where = f"FluidBlocks[{i}]"
@@ -362,6 +488,8 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
                        "velocity": plane(rd.vec3(b, "initialVelocity", where, [0.0, 0.0, 0.0]),
                                          f"{where}.initialVelocity"), "name": where})
         refs.append(((lo + hi) / 2).tolist())
+        weights.append(float(np.prod((hi - lo)[:dim])))
+        boxes.append((len(fluids) - 1, lo, hi))
     for i, f in enumerate(models):
         where = f"FluidModels[{i}]"
         im.keys(f, where, MODEL_KEYS, {"visMesh"}, "fluid model")
@@ -392,6 +520,7 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
                        "velocity": plane(rd.vec3(f, "initialVelocity", where, [0.0, 0.0, 0.0]),
                                          f"{where}.initialVelocity"), "name": where})
         refs.append(np.asarray(m.centroid).tolist())
+        weights.append(abs(float(m.volume)))
 
     emitters, emitted = [], {}
     for i, e in enumerate(emitters_in):
@@ -470,8 +599,9 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
             emitted[mid] = emitted.get(mid, 0) + len(births)
         emitters.append(em)
         refs.append(pos)
+        weights.append(0.0)
 
-    walls = {}
+    walls, placed = {}, []
     for i, b in enumerate(bodies):
         where = f"RigidBodies[{i}]"
         im.keys(b, where, BODY_KEYS, BODY_VIEWER, "rigid body")
@@ -491,14 +621,19 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
             if "mapInvert" in b and not particle_walls:
                 entry["hollow"] = rd.flag(b, "mapInvert", where)
             else:  # particle boundaries have no side: the fluid's side is the inside
-                entry["hollow"] = _inside_any(m, refs)
+                entry["hollow"] = _inside_most(m, refs, weights)
             if thick:
                 im.warn(f"{label}: mapThickness {thick:g} not mapped (dcdc's walls are "
                         "wall_thickness deep)")
         else:
             entry["thickness"] = max(4 * r, thick)
             entry["invert_normals"] = not _front_side(m, refs)  # the shell away from the fluid
-        walls[unique(scene_name(p.stem, "wall"), walls)] = entry
+        wname = unique(scene_name(p.stem, "wall"), walls)
+        walls[wname] = entry
+        if m.metadata["dcdc_closed"]:
+            placed.append((wname, label, m, entry["hollow"]))
+    _clip_blocks(im, fluids, boxes, placed, dim, r)
+    fluids = [f for f in fluids if f is not None]
 
     for i, f in enumerate(rd.items(data, "AnimationFields")):
         im.keys(f, f"AnimationFields[{i}]", FIELD_KEYS, set(), "animation field")
