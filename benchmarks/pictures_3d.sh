@@ -10,9 +10,10 @@ MODEL=${2:-dcdc3d}
 SCENES=${3:-cocktail hourglass canyon}
 mkdir -p out/pictures
 for s in $SCENES; do
-    case $s in canyon) strip=0,1,2,3,5 ;; *) strip=0,1,3,6,10 ;; esac
-    dcdc simulate --model "$MODEL" --dataset "$DATA/test_scenes" --trajectory "${s}_3d" --steps 500 \
+    # the canyon's 10 s SPH run is datasets/3d/canyon10 (docs/datasets.md)
+    case $s in canyon) set=canyon10; strip=0,1,2,4,6,10 ;; *) set=test_scenes; strip=0,1,3,6,10 ;; esac
+    dcdc simulate --model "$MODEL" --dataset "$DATA/$set" --trajectory "${s}_3d" --steps 500 \
         --out "out/pictures/${s}_3d_$MODEL.h5" --overwrite > /dev/null 2>&1 || true  # a guard stop is drawn too
-    dcdc render --compare "$DATA/test_scenes/${s}_3d.h5" "out/pictures/${s}_3d_$MODEL.h5" --strip "$strip" \
+    dcdc render --compare "$DATA/$set/${s}_3d.h5" "out/pictures/${s}_3d_$MODEL.h5" --strip "$strip" \
         --cut z --out "docs/img/compare_${s}_3d.png" --overwrite --no-progress
 done
