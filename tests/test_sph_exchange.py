@@ -1,0 +1,44 @@
+"""The lock-exchange validation case (``dcdc validate-sph --case lock_exchange``)."""
+import math
+
+import numpy as np
+
+from dcdc.sph import SPHConfig
+from dcdc.sph.cases import CASES, exchange_fronts, front_speed
+
+
+def test_fronts_on_synthetic_currents():
+    """Two currents with known fronts: heavy along the floor up to x_h, light along the lid
+    down to x_l; the percentiles find them within a spacing, one particle squirted far
+    ahead does not move them, and the fit returns the speed."""
+    s, H = 0.02, 0.2
+    ys = np.arange(s / 2, H, s)
+    xs = np.arange(s / 2, 1.6, s)
+    X, Y = np.meshgrid(xs, ys)
+    pts = np.c_[X.ravel(), Y.ravel()]
+    t = np.linspace(0.5, 1.1, 7)
+    fh, fl = [], []
+    for tt in t:
+        xh, xl = 0.8 + 0.4 * tt, 0.8 - 0.3 * tt
+        heavy = ((pts[:, 1] < H / 2) & (pts[:, 0] < xh)) | ((pts[:, 1] >= H / 2) & (pts[:, 0] < xl))
+        phase = np.where(heavy, 0, 1)
+        phase[np.flatnonzero((pts[:, 1] < s) & (pts[:, 0] > 1.5))[:1]] = 0  # a stray one
+        a, b = exchange_fronts(pts, phase, H, s)
+        assert abs(a - xh) < 2 * s and abs(b - xl) < 2 * s
+        fh.append(a)
+        fl.append(b)
+    assert abs(front_speed(t, fh) - 0.4) < 0.05 and abs(front_speed(t, fl) + 0.3) < 0.05
+
+
+def test_quick_lock_exchange_runs():
+    """The quick 2-D variant (about 7 s on 2 cores) returns finite Froude numbers and its
+    checks. It fails at present (Fr 0.08 / 0.23 against 0.5, docs/sph.md); this test
+    guards the case, not the physics. 3-D returns one information row."""
+    rows = CASES["lock_exchange"](2, True, SPHConfig())
+    checks = [r for r in rows if r.passed is not None]
+    assert len(checks) == 3
+    assert all(math.isfinite(r.measured) for r in rows)
+    fr = [r.measured for r in rows if r.quantity.startswith("Fr")]
+    assert len(fr) == 2 and all(f > 0 for f in fr)
+    rows3 = CASES["lock_exchange"](3, True, SPHConfig())
+    assert len(rows3) == 1 and rows3[0].passed is None
