@@ -10,16 +10,7 @@
 set -euo pipefail
 DATA=${1:-datasets/2d}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
-python - <<'PY'
-import os, torch
-from dcdc.model.checkpoint import load_checkpoint, save_checkpoint
-net, ck = load_checkpoint("cconv2d")
-with torch.no_grad():
-    for p in net.parameters():
-        p.zero_()
-os.makedirs("out", exist_ok=True)
-save_checkpoint("out/inertial2d.pt", net, ck["data"], {"note": "all weights zero: no correction"})
-PY
+python benchmarks/inertial_model.py cconv2d out/inertial2d.pt
 M="--model dcdc2d --model cconv2d"
 I="--model out/inertial2d.pt"
 ev() { dcdc evaluate --stride 10 --overwrite "$@" > /dev/null; }

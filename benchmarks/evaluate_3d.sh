@@ -12,16 +12,7 @@ set -euo pipefail
 DATA=${1:-datasets/3d}
 STEPS=${SHOWCASE_STEPS:-500}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
-python - <<'PY'
-import os, torch
-from dcdc.model.checkpoint import load_checkpoint, save_checkpoint
-net, ck = load_checkpoint("cconv3d")
-with torch.no_grad():
-    for p in net.parameters():
-        p.zero_()
-os.makedirs("out", exist_ok=True)
-save_checkpoint("out/inertial3d.pt", net, ck["data"], {"note": "all weights zero: no correction"})
-PY
+python benchmarks/inertial_model.py cconv3d out/inertial3d.pt
 M="--model dcdc3d --model cconv3d"
 I="--model out/inertial3d.pt"
 ev() { dcdc evaluate --stride 10 --overwrite "$@" > /dev/null; }
