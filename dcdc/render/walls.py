@@ -48,14 +48,13 @@ def wall_meshes(traj) -> tuple[list[WallMesh], list[str]]:
         return [], []
     from ..geometry.shapes import load_mesh
     from ..scene import parse
-    from ..scene.format import _transform
     source = str(traj.attrs.get("source", "") or "")
     try:
         scene = parse(text, source or traj.name)
-        # the walls as simulated, without Scene.variant's derived domain: a scene without
-        # [domain] would load every mesh for it, and one missing mesh is then a note about
-        # that mesh (below), not about the whole scene
-        variant = _transform(scene.data, 3, float(traj.attrs.get("resolution", 1.0)))
+        # the walls as simulated, without the derived domain: a scene without [domain]
+        # would load every mesh for it, and one missing mesh is then a note about that mesh
+        # (below), not about the whole scene
+        variant = scene.variant(3, float(traj.attrs.get("resolution", 1.0)), domain=False)
     except DcdcError as e:
         return [], [f"scene stored in {traj.name} unreadable: {e}"]
     meshes, notes = [], []

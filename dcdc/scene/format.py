@@ -887,12 +887,13 @@ class Scene:
         return self.path.name if self.path else self.name
 
     def variant(self, dim: int | None = None, resolution: float = 1.0,
-                meshes: dict | None = None) -> dict:
+                meshes: dict | None = None, domain: bool = True) -> dict:
         """The ``dim``-D variant at ``resolution`` (:func:`_transform`); a scene without
         ``[domain]`` gets the box around its walls and fluid (:func:`derive_domain`;
-        ``meshes`` caches the placed meshes it loads)."""
+        ``meshes`` caches the placed meshes it loads) unless ``domain`` is False (its
+        ``domain`` then stays None and no mesh is loaded)."""
         s = _transform(self.data, dim or self.dim, resolution)
-        if s["domain"] is None:
+        if domain and s["domain"] is None:
             s["domain"] = derive_domain(s, self.path.parent if self.path else None,
                                         {} if meshes is None else meshes, self.source)
         return s
