@@ -2,7 +2,8 @@
     python benchmarks/eval_tables.py benchmarks/eval_2d_*.json
 One table per file (a row per model: means over its trajectories), then for files of
 built-in scenes one row per scene (steps, final order, centre-of-mass error), and where a
-file holds dcdc2d and cconv2d (or dcdc3d and cconv3d) a paired comparison: per metric, on how many trajectories
+file holds dcdc2d and cconv2d (or dcdc3d and cconv3d, or dcdcX_sK and cconvX_sK of one
+training seed) a paired comparison: per metric, on how many trajectories
 dcdc2d is better, and the mean difference with a 95 % bootstrap interval over trajectories
 (the spread between scenes; the spread between training seeds is not in it)."""
 import json
@@ -55,9 +56,9 @@ def summary(path):
             sph = "yes" if next(iter(per.values()))["order_ok_true"] else "no"
             out.append(f"| {name} | " + " | ".join(cells) + f" | {sph} |")
         out.append("")
-    for dim in ("2d", "3d"):
-        a, b = f"dcdc{dim}", f"cconv{dim}"
-        if a in doc["aggregate"] and b in doc["aggregate"] and n > 1:
+    for a in doc["aggregate"]:  # dcdc2d / cconv2d, and dcdc2d_s1 / cconv2d_s1 of a seed
+        b = "cconv" + a[4:]
+        if a.startswith("dcdc") and b in doc["aggregate"] and n > 1:
             out += paired(trajs, a, b)
     return "\n".join(out)
 

@@ -32,13 +32,14 @@ def test_fronts_on_synthetic_currents():
 
 def test_quick_lock_exchange_runs():
     """The quick 2-D variant (about 7 s on 2 cores) returns finite Froude numbers and its
-    checks. It fails at present (Fr 0.08 / 0.23 against 0.5, docs/sph.md); this test
-    guards the case, not the physics. 3-D returns one information row."""
+    checks, and the information row with XSPH and artificial viscosity off. It fails at
+    present (Fr 0.08 / 0.23 against 0.5; 0.29 / 0.38 with the dissipation off, docs/sph.md);
+    this test guards the case, not the physics. 3-D returns one information row."""
     rows = CASES["lock_exchange"](2, True, SPHConfig())
     checks = [r for r in rows if r.passed is not None]
     assert len(checks) == 3
     assert all(math.isfinite(r.measured) for r in rows)
     fr = [r.measured for r in rows if r.quantity.startswith("Fr")]
-    assert len(fr) == 2 and all(f > 0 for f in fr)
+    assert len(fr) == 3 and all(f > 0 for f in fr)  # heavy, light, heavy with dissipation off
     rows3 = CASES["lock_exchange"](3, True, SPHConfig())
     assert len(rows3) == 1 and rows3[0].passed is None

@@ -1,0 +1,132 @@
+"""Exchange flows under refinement and under the numerical dissipation (issue 8, item 2).
+
+The two exchange flows the project ships, each at three or four particle radii and with the
+solver's stabilisation at full strength (the defaults: XSPH ε = 0.1, artificial viscosity
+1e-3 m²/s), at half strength, and switched off:
+
+* the full-depth 2-D lock exchange of ``dcdc validate-sph --case lock_exchange``
+  (1500 | 1000 kg/m³, 1.6 × 0.2 m closed tank): Froude numbers of the heavy (floor) and
+  light (lid) fronts, Fr = U / sqrt(g'H), fitted over t = 2-5 T0
+  (:func:`dcdc.sph.cases.lock_exchange_run`); energy-conserving theory ½ (Benjamin 1968);
+* the built-in 2-D hourglass (2500 over 1000 kg/m³, 15 s) at the scene's radius 2.5 cm,
+  1.77 cm and 1.25 cm: the fraction of the heavy phase below the neck (y < 0.9 m) at
+  5, 10 and 15 s and the time at which half of it has passed.
+
+    python benchmarks/exchange_convergence.py [--quick] [--json benchmarks/exchange_convergence.json]
+
+``--quick`` runs only the two coarsest radii of each; ``--only``, ``--settings`` and
+``--seeds 1 2 …`` (hourglass ensemble members with a 1 mm/s random start) select parts.
+Prints a table; the JSON holds every number and the wall times. The hourglass exchange is
+chaotic: single runs of numerically equal settings differ by several % in the drained
+fraction, so compare ensembles.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import platform
+import time
+
+import numpy as np
+
+from dcdc.scene import get_scene
+from dcdc.sph import Simulator, SPHConfig
+from dcdc.sph.cases import LOCK_H, lock_exchange_run
+
+NECK_Y = 0.9  # the hourglass neck: half the 1.8 m cavity
+
+
+def settings(base: SPHConfig) -> dict[str, SPHConfig]:
+    """The stabilisation at full strength, halved, and off."""
+    d = base.to_dict()
+    return {"default": base,
+            "half": SPHConfig.from_dict({**d, "xsph": 0.5 * base.xsph, "viscosity": 0.5 * base.viscosity}),
+            "off": SPHConfig.from_dict({**d, "xsph": 0.0, "viscosity": 0.0})}
+
+
+def lock(r: float, cfg: SPHConfig) -> dict:
+    d = lock_exchange_run(r, cfg)
+    scale = math.sqrt(d["gp"] * LOCK_H)
+    return {"r": r, "n": d["n"], "fr_heavy": d["heavy"] / scale, "fr_light": d["light"] / scale,
+            "wall_s": d["wall"]}
+
+
+def hourglass(r: float, cfg_over: dict, seed: int = 0) -> dict:
+    """The 2-D hourglass at particle radius ``r`` with the scene's own solver table plus
+    ``cfg_over``; the heavy fraction below the neck every frame. ``seed`` > 0 adds a random
+    initial velocity of 1 mm/s rms per component (an ensemble member of the chaotic neck
+    flow); 0 is the scene as it is."""
+    base = get_scene("hourglass")
+    scene = dataclasses.replace(base, data={**base.data, "radius": r}, _cache={})
+    sy = scene.realize(2)
+    if seed:
+        sy.v += 1e-3 * np.random.default_rng(seed).standard_normal(sy.v.shape)
+    cfg = SPHConfig.from_dict({**scene.solver, **cfg_over})
+    heavy = [p.name for p in sy.phases].index("heavy")
+    sim = Simulator(sy, cfg)
+    t0 = time.perf_counter()
+    ts, below = [], []
+    n = int(round(scene.duration / 0.02))
+    for _ in range(n):
+        sim.advance(0.02)
+        ts.append(sim.time)
+        below.append(float(np.mean(sy.x[sy.phase == heavy, 1] < NECK_Y)))
+    below = np.array(below)
+    half = np.flatnonzero(below >= 0.5)
+    at = lambda t: float(below[int(round(t / 0.02)) - 1])  # noqa: E731
+    return {"r": r, "n": sy.n_fluid, "seed": seed, "below_5s": at(5.0), "below_10s": at(10.0),
+            "below_15s": at(15.0), "t_half": float(ts[half[0]]) if len(half) else None,
+            "wall_s": time.perf_counter() - t0}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--json", default=None)
+    ap.add_argument("--only", choices=["lock", "hourglass"], default=None)
+    ap.add_argument("--seeds", type=int, nargs="*", default=[0],
+                    help="hourglass ensemble members (0 = unperturbed; see hourglass())")
+    ap.add_argument("--settings", nargs="*", default=["default", "half", "off"],
+                    choices=["default", "half", "off"])
+    a = ap.parse_args()
+    lock_r = [0.01, 0.007] if a.quick else [0.01, 0.007, 0.005, 0.0035]
+    hg_r = [0.025, 0.0177] if a.quick else [0.025, 0.0177, 0.0125]
+    cfgs = {k: v for k, v in settings(SPHConfig()).items() if k in a.settings}
+    doc = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
+           "numba_threads": os.environ.get("NUMBA_NUM_THREADS", "default"),
+           "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+           "lock_exchange": [], "hourglass": []}
+    if a.only in (None, "lock"):
+        print(f"{'lock exchange':<14} {'r mm':>5} {'N':>6} {'Fr heavy':>9} {'Fr light':>9} {'wall s':>7}")
+        for name, cfg in cfgs.items():
+            for r in lock_r:
+                if name == "half" and r < 0.005:
+                    continue  # the halving is read at 5 mm, as in validate-sph
+                row = {"setting": name, **lock(r, cfg)}
+                doc["lock_exchange"].append(row)
+                print(f"{name:<14} {r * 1e3:>5.1f} {row['n']:>6} {row['fr_heavy']:>9.3f} "
+                      f"{row['fr_light']:>9.3f} {row['wall_s']:>7.1f}", flush=True)
+    if a.only in (None, "hourglass"):
+        print(f"{'hourglass':<14} {'r mm':>5} {'seed':>4} {'N':>6} {'below 5 s':>9} {'10 s':>6} {'15 s':>6} "
+              f"{'t half':>7} {'wall s':>7}")
+        for name, cfg in cfgs.items():
+            over = {"xsph": cfg.xsph, "viscosity": cfg.viscosity}
+            for r, seed in [(r, k) for r in hg_r for k in a.seeds]:
+                row = {"setting": name, **hourglass(r, over, seed)}
+                doc["hourglass"].append(row)
+                th = f"{row['t_half']:.2f}" if row["t_half"] is not None else "-"
+                print(f"{name:<14} {r * 1e3:>5.1f} {seed:>4} {row['n']:>6} {row['below_5s']:>9.3f} "
+                      f"{row['below_10s']:>6.3f} {row['below_15s']:>6.3f} {th:>7} "
+                      f"{row['wall_s']:>7.1f}", flush=True)
+    doc["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(doc, f, indent=2)
+            f.write("\n")
+
+
+if __name__ == "__main__":
+    main()
