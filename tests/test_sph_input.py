@@ -114,6 +114,10 @@ def test_cli_bad_options_are_one_line_errors():
     assert r.stderr.strip().startswith("error:") and "Traceback" not in r.stderr
     r = cli("validate-sph", "--dim", "4")
     assert r.returncode == 2 and "Traceback" not in r.stderr
+    for bad in ("nosuchkey=1", "xsph=-1", "xsph"):
+        r = cli("validate-sph", "--quick", "--case", "hydrostatic", "--sph", bad)
+        assert r.returncode != 0 and "Traceback" not in r.stderr, bad
+        assert len(r.stderr.strip().splitlines()) == 1 and "sph" in r.stderr, (bad, r.stderr)
 
 
 def test_benchmark_sph_small_run_writes_median_of_repeats(tmp_path):

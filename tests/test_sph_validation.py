@@ -50,12 +50,14 @@ def test_trapped_light_fluid_is_counted():
 def test_cli_table_and_json(tmp_path):
     out = tmp_path / "v.json"
     r = subprocess.run([sys.executable, "-m", "dcdc.cli", "validate-sph", "--quick", "--case",
-                        "hydrostatic", "--json", str(out)], capture_output=True, text=True)
+                        "hydrostatic", "--sph", "dt_max=0.004", "--json", str(out)],
+                       capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "measured" in r.stdout and "PASS" in r.stdout
     assert "4/4 checks passed" in r.stdout
     doc = json.loads(out.read_text())
     assert doc["passed"] and doc["quick"] and len(doc["rows"]) == 4
+    assert doc["sph"]["dt_max"] == 0.004 and doc["sph"]["xsph"] == 0.1  # ran with the override
 
 
 def test_energy_budget_catches_created_energy():

@@ -48,6 +48,10 @@ class SPHConfig:
         along them (Adami et al. 2012, wall-parallel part only), so that light fluid along a
         side wall feels its full buoyancy; off by default: in a thin 3-D tank at rest it
         makes the walls carry part of the weight (p(H/2) = 0.85 ρgH/2, docs/sph.md).
+    wall_contact_support: (volume map only) a *balanced* wall: Φ = Ψ + A Ψ_c with Ψ_c the
+        solid's integral of a kernel of this support [particle radii], so that a uniform
+        pressure exerts no net force on the first row of the rest lattice
+        (:func:`dcdc.sph.volume_map.balanced_wall`); 0 = the plain kernel integral Ψ.
     boundary: how the walls enter density and pressure: "map" (a smooth volume map of the
         solid, :mod:`dcdc.sph.volume_map`: walls push but do not grip) or "particles"
         (Akinci et al. 2012 sums over the wall particles; their ripple grips fluid under
@@ -94,6 +98,7 @@ class SPHConfig:
     no_slip: bool = False
     boundary: str = "map"
     wall_buoyancy: bool = False
+    wall_contact_support: float = 0.0
     surface_tension: float = 0.0
     interfacial_tension: dict = field(default_factory=dict)
     interfacial_model: str = "pairwise"
@@ -117,7 +122,7 @@ class SPHConfig:
         for name in positive:
             _check_number(self, name, lambda v: v > 0, "> 0")
         for name in ("viscosity", "xsph", "surface_tension", "sound_speed", "correction_speed",
-                     "background_pressure"):
+                     "background_pressure", "wall_contact_support"):
             _check_number(self, name, lambda v: v >= 0, ">= 0")
         for name in ("min_iterations", "max_iterations"):
             v = getattr(self, name)

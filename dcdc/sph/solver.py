@@ -59,7 +59,8 @@ class Simulator:
         self.V0 = lattice_volume(2.0 * r, self.h, system.dim)
         self.Vb = wall_volumes(system.wall_x, self.h, self.V0)
         self._walls = CellGrid(system.wall_x, self.h)  # static: binned once
-        self.volume_map = (volume_map.for_system(system, self.h, self.V0, cfg.wall_buoyancy)
+        self.volume_map = (volume_map.for_system(system, self.h, self.V0, cfg.wall_buoyancy,
+                                                  cfg.wall_contact_support)
                            if cfg.boundary == "map" else None)
         self._wall_edges = self.volume_map is None or cfg.no_slip
         self._rho0 = system.rest_density

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from ..configs import apply_overrides
 from ..errors import DcdcError
 from .cases import CASES, Row
 from .config import SPHConfig
@@ -43,16 +44,19 @@ def format_row(r: Row) -> str:
 @click.option("--case", "cases", multiple=True, type=click.Choice(list(CASES)),
               help="run only this case (repeatable)")
 @click.option("--solver", type=click.Choice(["dfsph", "wcsph"]), default="dfsph", show_default=True)
+@click.option("--sph", "sph_set", multiple=True, metavar="KEY=VALUE",
+              help="Override a solver setting (repeatable), e.g. --sph xsph=0.")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="also write the table as JSON")
-def validate_command(quick, dim, cases, solver, json_path):
+def validate_command(quick, dim, cases, solver, sph_set, json_path):
     """Physics validation of the multiphase SPH solver; exits 1 if any check fails."""
     header = (f"{'case':<38} {'quantity':<36} {'measured':>10} {'reference':>22} "
               f"{'tolerance':>16} {'pass':>5}")
     click.echo(header)
     click.echo("-" * len(header))
     t0 = time.perf_counter()
-    rows = validate(int(dim), quick, list(cases), SPHConfig(solver=solver),
+    cfg = SPHConfig.from_dict(apply_overrides({"solver": solver}, sph_set))
+    rows = validate(int(dim), quick, list(cases), cfg,
                     echo=lambda r: click.echo(format_row(r)))
     wall = time.perf_counter() - t0
     checks = [r for r in rows if r.passed is not None]
@@ -60,7 +64,7 @@ def validate_command(quick, dim, cases, solver, json_path):
     click.echo(f"{len(checks) - n_fail}/{len(checks)} checks passed in {wall:.0f} s "
                f"({'quick' if quick else 'full'}, {dim}-D, {solver})")
     if json_path:
-        doc = {"dim": int(dim), "quick": quick, "solver": solver, "wall_s": wall,
+        doc = {"dim": int(dim), "quick": quick, "solver": solver, "sph": cfg.to_dict(), "wall_s": wall,
                "passed": n_fail == 0, "rows": [r.as_dict() for r in rows]}
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
         Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")

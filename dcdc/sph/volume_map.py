@@ -141,7 +141,7 @@ class VolumeMap:
     """Tabulated Ψ and ∇Ψ of the walls (module doc); :meth:`sample` evaluates both."""
 
     def __init__(self, chi: np.ndarray, lo: np.ndarray, cell: float, h: float,
-                 down: np.ndarray | None = None):
+                 down: np.ndarray | None = None, contact: tuple[np.ndarray, float] | None = None):
         d = chi.ndim
         Wk, Gk = _kernel_stencil(cell, h, d)
         norm = Wk.sum()
@@ -152,6 +152,21 @@ class VolumeMap:
         self.shape = np.array(chi.shape, dtype=np.int64)
         # ∇Ψ is the derivative of the interpolant (:func:`_sample`), so S_b = ∇Ψ exactly
         self.psi = np.ascontiguousarray(_convolve(chi, Wk).reshape(-1))
+        # the walls' share Φ = Ψ + A Ψ_c of a balanced wall (:func:`balanced_wall`); the
+        # contact (:meth:`keep_outside`) keeps reading Ψ alone
+        self.contact = None
+        if contact is not None:
+            # (node table of the signed distance from the map's surface, support h_c, A)
+            dist, hc, amp = contact
+            z = np.linspace(0.0, hc, 2001)
+            slope = np.gradient(contact_profile(z, hc, d), z)
+            slope[-1] = 0.0
+            # P_c re-integrated from its piecewise-linear slope (P_c(h_c) = 0), so that the
+            # sampled value's derivative is exactly the sampled slope (C¹, no table kinks)
+            steps = 0.5 * (slope[1:] + slope[:-1]) * np.diff(z)
+            prof = -np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]])
+            self.contact = (np.ascontiguousarray(dist, dtype=np.float64).reshape(-1), z, prof,
+                            slope, float(amp))
         # the hydrostatic moment along the unit vector ``down``: q(x) = ∫_solid (down·(y - x))
         # ∇_x W(x - y) dy, i.e. the stencil -(down·z) ∇W(z) with z = x - y
         self.moment = None
@@ -168,8 +183,25 @@ class VolumeMap:
         return len(self.shape)
 
     def sample(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(Ψ(x) [n], ∇Ψ(x) [n, d]) at positions ``x`` [n, d]."""
-        return self._interp(self.psi, x)
+        """(Ψ(x) [n], ∇Ψ(x) [n, d]) at positions ``x`` [n, d]: the walls' share of ψ and of
+        the pressure operator (Φ and ∇Φ of a balanced wall)."""
+        psi, grad = self._interp(self.psi, x)
+        if self.contact is not None:
+            # Ψ_c = P_c(s) of the interpolated signed distance s: exact at flat walls (the
+            # cubic interpolant reproduces a linear s), C¹ in corners. Tabulating Ψ_c itself
+            # (support 2r = 4 cells) overestimated its slope at the first row 1.8× (measured)
+            dist, z, prof, dprof, amp = self.contact
+            s, ds = self._interp(dist, x)
+            a = np.minimum(np.abs(s), z[-1])
+            k = np.clip(np.searchsorted(z, a, side="right") - 1, 0, len(z) - 2)
+            t = a - z[k]
+            curv = (dprof[k + 1] - dprof[k]) / (z[k + 1] - z[k])
+            slope = dprof[k] + curv * t  # P_c'(|s|), piecewise linear
+            val = prof[k] + dprof[k] * t + 0.5 * curv * t * t  # its exact antiderivative
+            # inside the solid P_c(-a) = 2 P_c(0) - P_c(a) (= 1 - P_c(a)): C¹ across s = 0
+            psi = psi + amp * np.where(s < 0, 2.0 * prof[0] - val, val)
+            grad = grad + (amp * slope)[:, None] * ds
+        return psi, grad
 
     def keep_outside(self, x: np.ndarray, v: np.ndarray, limit: float = 0.5,
                      iterations: int = 3, target: float | None = None) -> int:
@@ -183,13 +215,13 @@ class VolumeMap:
         the map's surface at a flat wall; fluid at rest never comes near it (Ψ ≈ 0.16 at the
         first row, ≈ 0.4 in a 3-D corner), so only particles that reach the solid feel this."""
         target = limit if target is None else target
-        psi, _ = self.sample(x)
+        psi, _ = self._interp(self.psi, x)
         hit = np.flatnonzero(psi > limit)
         if not len(hit):
             return 0
         xh = x[hit]
         for _ in range(iterations):
-            ph, gh = self.sample(xh)
+            ph, gh = self._interp(self.psi, xh)
             g2 = (gh ** 2).sum(1)
             step = np.where((ph > target) & (g2 > 1e-12), (ph - target) / np.maximum(g2, 1e-300), 0.0)
             # deep in the solid ∇Ψ -> 0 and the Newton step would blow up: move at most h/4
@@ -197,7 +229,7 @@ class VolumeMap:
             step = np.minimum(step, 0.25 * self.h / np.sqrt(np.maximum(g2, 1e-300)))
             xh -= step[:, None] * gh
         x[hit] = xh
-        _, gh = self.sample(xh)
+        _, gh = self._interp(self.psi, xh)
         n = gh / np.maximum(np.linalg.norm(gh, axis=1, keepdims=True), 1e-300)
         vn = (v[hit] * n).sum(1)
         v[hit] -= np.maximum(vn, 0.0)[:, None] * n
@@ -242,6 +274,73 @@ def half_space_profile(h: float, dim: int, n: int = 801) -> tuple[np.ndarray, np
     return z, cum[-1] - cum
 
 
+def _first_row(radius: float, h: float, dim: int, V0: float) -> tuple[float, float]:
+    """The fluid's own share ψ_f of the first row of the rest lattice at a flat wall (rows
+    at r, 3r, … from the wall surface) and its derivative ∂ψ_f/∂z along the wall normal
+    (away from the wall) with the other particles held: (ψ_f, ∂ψ_f/∂z)."""
+    s = 2.0 * radius
+    m = int(math.ceil(h / s)) + 1
+    tang = np.arange(-m, m + 1) * s
+    rows = radius + s * np.arange(m + 1)
+    axes = [tang, rows] + [tang] * (dim - 2)
+    P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
+    P[:, 1] -= radius  # relative to the first-row particle at the origin
+    dist = np.linalg.norm(P, axis=1)
+    W, dW = cubic_values(dist, h, dim)
+    # ∂/∂z_i W(|x_i - x_j|) = W'(d) (z_i - z_j)/d = -W'(d) P_y / d
+    slope = -V0 * float(np.sum(np.where(dist > 0, dW / np.maximum(dist, 1e-300), 0.0) * P[:, 1]))
+    return V0 * float(W.sum()), slope
+
+
+def balanced_wall(radius: float, h: float, dim: int, V0: float,
+                  contact_support: float = 2.0) -> tuple[float, float]:
+    """Offset δ and amplitude A of a *balanced* wall, Φ = Ψ + A Ψ_c, Ψ_c the solid's
+    integral of the cubic spline of support h_c = ``contact_support`` · r (the overlap of
+    the particle's own neighbourhood with the solid).
+
+    Why: with the pressure force the negative adjoint of the compression rate, a uniform
+    pressure p accelerates a fluid particle by -(p/ρ0_i)(2 ∂ψ_f/∂x + ∂Φ/∂x): the pair sum
+    counts p twice (p_i + p_j), the wall once (only p_i). With Φ = Ψ (the kernel integral)
+    the first row of the rest lattice gets ∂ψ_f/∂z = 0.253/r and ∂Ψ/∂z = -0.216/r (2-D;
+    3-D 0.255 / -0.213), so uniform pressure pulls it into the wall with (p/ρ0) 0.29/r —
+    the floor row sinks from r to ~0.35 r (docs/sph.md). A Φ that is steeper at the first
+    row, ∂Φ/∂z = -2 ∂ψ_f/∂z, balances it while the force stays the adjoint of Dψ/Dt (no
+    energy created, unlike a mirrored wall pressure). Two conditions on the rest lattice,
+    ψ = ψ_f + Φ = 1 and that slope, fix δ (the map's surface behind the walls') and A;
+    computed, not fitted, like V0 and :func:`wall_offset`. At h = 4r, h_c = 2r: δ = 0.39 r,
+    A = 10.5 (2-D), 13.1 (3-D)."""
+    from scipy.optimize import brentq
+
+    psi_f, slope_f = _first_row(radius, h, dim, V0)
+    z, psi = half_space_profile(h, dim, 2001)
+    hc = contact_support * radius
+    zc, pc = half_space_profile(hc, dim, 2001)
+    dpsi, dpc = np.gradient(psi, z), np.gradient(pc, zc)
+
+    def amplitude(off):
+        z1 = radius + off
+        return (-2.0 * slope_f - np.interp(z1, z, dpsi)) / np.interp(z1, zc, dpc, right=0.0)
+
+    def residual(off):
+        z1 = radius + off
+        return psi_f + np.interp(z1, z, psi) + amplitude(off) * np.interp(z1, zc, pc, right=0.0) - 1.0
+
+    if not hc > radius + wall_offset(radius, h, dim, V0):
+        raise DcdcError(f"sph.wall_contact_support must exceed the first row's distance "
+                        f"from the map surface (got {contact_support} r)")
+    off = brentq(residual, wall_offset(radius, h, dim, V0), hc - radius - 1e-6 * radius)
+    return float(off), float(amplitude(off))
+
+
+def contact_profile(z: np.ndarray, hc: float, dim: int) -> np.ndarray:
+    """Ψ_c of a flat solid at signed distance ``z`` from its surface (< 0 inside): the
+    half-space integral of the kernel of support ``hc``, 1 - Ψ_c(-z) inside."""
+    zt, pt = half_space_profile(hc, dim)
+    z = np.asarray(z, dtype=np.float64)
+    out = np.interp(np.abs(z), zt, pt, right=0.0)
+    return np.where(z < 0, 1.0 - out, out)
+
+
 def wall_offset(radius: float, h: float, dim: int, V0: float) -> float:
     """How far (δ) the map's solid surface lies behind the walls' surface so that the rest
     lattice touching a flat wall keeps ψ = 1: the fluid's own discrete sum over the half
@@ -249,15 +348,7 @@ def wall_offset(radius: float, h: float, dim: int, V0: float) -> float:
     Ψ = 1 - ψ_f,lattice at the first row, distance r from the wall surface; δ solves
     Ψ_half(r + δ) = 1 - ψ_f (:func:`half_space_profile`). The same consistency as the rest volume V0
     (:func:`dcdc.sph.kernels.lattice_volume`); about 0.15 r (2-D) and 0.17 r (3-D) at h = 4r."""
-    s = 2.0 * radius
-    m = int(math.ceil(h / s)) + 1
-    tang = np.arange(-m, m + 1) * s
-    rows = radius + s * np.arange(m + 1)
-    axes = [tang, rows] + [tang] * (dim - 2)
-    P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
-    P[:, 1] -= radius
-    W, _ = cubic_values(np.linalg.norm(P, axis=1), h, dim)
-    need = 1.0 - V0 * float(W.sum())
+    need = 1.0 - _first_row(radius, h, dim, V0)[0]
     z, psi = half_space_profile(h, dim)
     if need <= 0.0:
         return h - radius
@@ -309,7 +400,7 @@ def _near_walls(wall_x, g_lo, cell, shape, reach: float) -> np.ndarray:
 
 
 def from_sdf(sdf, wall_x: np.ndarray, lo, hi, radius: float, h: float,
-             offset: float = 0.0, down=None) -> VolumeMap:
+             offset: float = 0.0, down=None, contact=None) -> VolumeMap:
     """Volume map of the solid {sdf < -offset} (:func:`wall_offset`).
     χ = clip(1/2 - (sdf + offset) / cell, 0, 1) (the volume
     fraction of a node's cell for a locally flat surface). The SDF is evaluated only at nodes
@@ -327,7 +418,23 @@ def from_sdf(sdf, wall_x: np.ndarray, lo, hi, radius: float, h: float,
         if not np.isfinite(vals).all():
             raise DcdcError("the walls' signed distance function returned NaN/inf")
         chi.reshape(-1)[close] = np.clip(0.5 - (vals + offset) / cell, 0.0, 1.0)
-    return VolumeMap(chi, g_lo, cell, h, down)
+    if contact is not None:
+        # the signed distance from the map's surface on a shell reaching h_c + 3 cells into
+        # the fluid (the contact's support and the interpolation stencil); beyond it h_c
+        # (no contact). The FFT quadrature of χ with a kernel of support 2r (4 cells) was
+        # 33 % off at the first row (measured): Ψ_c is evaluated from the distance instead
+        hc, amp = contact
+        dist = np.full(int(np.prod(shape)), 2.0 * hc)
+        if len(wall_x):
+            shell = np.flatnonzero(_near_walls(wall_x, g_lo, cell, shape, radius + hc + 3 * cell))
+            ax = np.unravel_index(shell, shape)
+            pts = np.stack([g_lo[a] + cell * ax[a] for a in range(dim)], axis=1)
+            sd = np.asarray(sdf(pts), dtype=np.float64) + offset
+            if not np.isfinite(sd).all():
+                raise DcdcError("the walls' signed distance function returned NaN/inf")
+            dist[shell] = np.minimum(sd, 2.0 * hc)
+        contact = (dist, hc, amp)
+    return VolumeMap(chi, g_lo, cell, h, down, contact)
 
 
 def from_particles(wall_x: np.ndarray, lo, hi, radius: float, h: float,
@@ -369,7 +476,7 @@ def from_particles(wall_x: np.ndarray, lo, hi, radius: float, h: float,
     return VolumeMap(chi.reshape(shape), g_lo, cell, h, down)
 
 
-def for_system(sy, h: float, V0: float, buoyancy: bool = False):
+def for_system(sy, h: float, V0: float, buoyancy: bool = False, contact_support: float = 0.0):
     """The walls' volume map of a :class:`~dcdc.particles.ParticleSystem`: from the scene's
     signed distance function when it has one (``sy.wall_sdf``), else from the wall particles'
     lattice cells; None without walls. Its surface lies :func:`wall_offset` behind the walls'
@@ -378,9 +485,17 @@ def for_system(sy, h: float, V0: float, buoyancy: bool = False):
     if sy.n_wall == 0:
         return None
     lo, hi = sy.domain
-    off = wall_offset(sy.radius, h, sy.dim, V0)
+    contact = None
+    if contact_support > 0:
+        if sy.wall_sdf is None:
+            raise DcdcError("sph.wall_contact_support needs the walls' signed distance (walls "
+                            "of a scene file), not wall particles alone")
+        off, amp = balanced_wall(sy.radius, h, sy.dim, V0, contact_support)
+        contact = (contact_support * sy.radius, amp)
+    else:
+        off = wall_offset(sy.radius, h, sy.dim, V0)
     g = float(np.linalg.norm(sy.gravity))
     down = sy.gravity / g if (g > 0 and buoyancy) else None
     if sy.wall_sdf is not None:
-        return from_sdf(sy.wall_sdf, sy.wall_x, lo, hi, sy.radius, h, off, down)
+        return from_sdf(sy.wall_sdf, sy.wall_x, lo, hi, sy.radius, h, off, down, contact)
     return from_particles(sy.wall_x, lo, hi, sy.radius, h, off, down)
