@@ -72,3 +72,21 @@ def test_model_benchmark_network_options_and_scaling(tmp_path):
     assert set(data["scaling"]) == {"dcdc"} and "scaling dcdc" in res.output
     bad = CliRunner().invoke(model_command, ["--particles", "200", "--channels", "a,b"])
     assert bad.exit_code != 0 and "--channels" in str(bad.exception or bad.output)
+
+
+def test_model_benchmark_radius_scale_reaches_the_network(tmp_path):
+    """--radius-scale sets the convolution radius: the mean neighbour count of the jittered
+    lattice falls with the radius's cube (2.25 → 1.5 spacings: about 0.3×)."""
+    counts = {}
+    for scale in (4.5, 3.0):
+        out = tmp_path / f"m{scale}.json"
+        res = CliRunner().invoke(model_command, ["--particles", "2000", "--networks", "dcdc",
+                                                 "--repeat", "1", "--channels", "8,8",
+                                                 "--radius-scale", str(scale), "--json", str(out)])
+        assert res.exit_code == 0, res.output
+        row = json.loads(out.read_text())["rows"][0]
+        assert row["options"]["radius_scale"] == scale
+        counts[scale] = row["neighbours_mean"]
+    assert 0.2 < counts[3.0] / counts[4.5] < 0.45
+    bad = CliRunner().invoke(model_command, ["--particles", "200", "--radius-scale", "0"])
+    assert bad.exit_code != 0 and "--radius-scale" in str(bad.exception or bad.output)

@@ -294,8 +294,10 @@ def run_model(sizes=(1000, 10000, 50000), networks=("dcdc", "cconv", "dcdc-antis
             net.profile = False
             parts = {k: v_ / repeat for k, v_ in net.timings.items()}
             mean_total = sum(totals) / repeat
+            pairs = np.diff(net.last_context.fluid.row_splits)  # fluid neighbours, self included
             row = {"network": name, "options": dict(net_options or {}),
                    "particles": len(x), "walls": len(wx),
+                   "neighbours_mean": float(pairs.mean()) if len(pairs) else 0.0,
                    "ms_per_step": min(totals) * 1e3,
                    "ms_per_step_median": statistics.median(totals) * 1e3,
                    "cpu_ms_per_step": cpu * 1e3,
@@ -348,11 +350,13 @@ def _fmt_row(r):
               "(default: the architecture's, 4)")
 @click.option("--channels", default=None, help="network option channels, comma-separated "
               "hidden widths (default: 32,64,64)")
+@click.option("--radius-scale", type=float, default=None, help="network option radius_scale: "
+              "the convolution radius in particle radii (default: 4.5)")
 @click.option("--device", default="cpu", show_default=True, help="where the network runs (cuda)")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write results here (e.g. benchmarks/model.json)")
-def model_command(particles, networks, repeat, bf16, train, kernel_size, channels, device,
-                  json_path):
+def model_command(particles, networks, repeat, bf16, train, kernel_size, channels, radius_scale,
+                  device, json_path):
     """ms per neural step (search included) per network and particle count."""
     from ..errors import DcdcError
 
@@ -367,6 +371,10 @@ def model_command(particles, networks, repeat, bf16, train, kernel_size, channel
     opts = {}
     if kernel_size is not None:
         opts["kernel_size"] = kernel_size
+    if radius_scale is not None:
+        if not radius_scale > 0:
+            raise DcdcError(f"--radius-scale must be > 0 (got {radius_scale})")
+        opts["radius_scale"] = radius_scale
     if channels:
         try:
             opts["channels"] = tuple(int(c) for c in channels.split(",") if c.strip())
