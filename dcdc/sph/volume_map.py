@@ -141,7 +141,8 @@ class VolumeMap:
     """Tabulated Ψ and ∇Ψ of the walls (module doc); :meth:`sample` evaluates both."""
 
     def __init__(self, chi: np.ndarray, lo: np.ndarray, cell: float, h: float,
-                 down: np.ndarray | None = None, contact: tuple[np.ndarray, float] | None = None):
+                 down: np.ndarray | None = None,
+                 contact: tuple[np.ndarray, float, float] | None = None):
         d = chi.ndim
         Wk, Gk = _kernel_stencil(cell, h, d)
         norm = Wk.sum()
@@ -325,10 +326,11 @@ def balanced_wall(radius: float, h: float, dim: int, V0: float,
         z1 = radius + off
         return psi_f + np.interp(z1, z, psi) + amplitude(off) * np.interp(z1, zc, pc, right=0.0) - 1.0
 
-    if not hc > radius + wall_offset(radius, h, dim, V0):
+    plain = wall_offset(radius, h, dim, V0)
+    if not hc > radius + plain:
         raise DcdcError(f"sph.wall_contact_support must exceed the first row's distance "
                         f"from the map surface (got {contact_support} r)")
-    off = brentq(residual, wall_offset(radius, h, dim, V0), hc - radius - 1e-6 * radius)
+    off = brentq(residual, plain, hc - radius - 1e-6 * radius)
     return float(off), float(amplitude(off))
 
 
@@ -399,6 +401,18 @@ def _near_walls(wall_x, g_lo, cell, shape, reach: float) -> np.ndarray:
     return mask.reshape(-1).astype(bool)
 
 
+def _sdf_near_walls(sdf, wall_x, g_lo, cell, shape, reach: float):
+    """The flat indices of the grid nodes within ``reach`` (max norm) of a wall particle and
+    the walls' signed distance there (a one-line error for NaN/inf)."""
+    idx = np.flatnonzero(_near_walls(wall_x, g_lo, cell, shape, reach))
+    axes = np.unravel_index(idx, shape)
+    nodes = np.stack([g_lo[a] + cell * axes[a] for a in range(len(shape))], axis=1)
+    vals = np.asarray(sdf(nodes), dtype=np.float64)
+    if not np.isfinite(vals).all():
+        raise DcdcError("the walls' signed distance function returned NaN/inf")
+    return idx, vals
+
+
 def from_sdf(sdf, wall_x: np.ndarray, lo, hi, radius: float, h: float,
              offset: float = 0.0, down=None, contact=None) -> VolumeMap:
     """Volume map of the solid {sdf < -offset} (:func:`wall_offset`).
@@ -406,17 +420,12 @@ def from_sdf(sdf, wall_x: np.ndarray, lo, hi, radius: float, h: float,
     fraction of a node's cell for a locally flat surface). The SDF is evaluated only at nodes
     within ``h`` + 2 cells of a wall particle (the shell the scene sampled, at least one
     kernel support thick): elsewhere a node is fluid or deep solid that no fluid particle
-    can reach within ``h``."""
+    can reach within ``h``. ``contact`` = (h_c, A) of a balanced wall (:func:`balanced_wall`)."""
     dim = len(np.atleast_1d(lo))
     g_lo, cell, shape = _grid(*_walls_box(wall_x, lo, hi, radius, h), radius, h, dim)
     chi = np.zeros(shape)
     if len(wall_x):
-        close = np.flatnonzero(_near_walls(wall_x, g_lo, cell, shape, 2.0 * radius + 2 * cell))
-        axes = np.unravel_index(close, shape)
-        nodes = np.stack([g_lo[a] + cell * axes[a] for a in range(dim)], axis=1)
-        vals = np.asarray(sdf(nodes), dtype=np.float64)
-        if not np.isfinite(vals).all():
-            raise DcdcError("the walls' signed distance function returned NaN/inf")
+        close, vals = _sdf_near_walls(sdf, wall_x, g_lo, cell, shape, 2.0 * radius + 2 * cell)
         chi.reshape(-1)[close] = np.clip(0.5 - (vals + offset) / cell, 0.0, 1.0)
     if contact is not None:
         # the signed distance from the map's surface on a shell reaching h_c + 3 cells into
@@ -426,13 +435,8 @@ def from_sdf(sdf, wall_x: np.ndarray, lo, hi, radius: float, h: float,
         hc, amp = contact
         dist = np.full(int(np.prod(shape)), 2.0 * hc)
         if len(wall_x):
-            shell = np.flatnonzero(_near_walls(wall_x, g_lo, cell, shape, radius + hc + 3 * cell))
-            ax = np.unravel_index(shell, shape)
-            pts = np.stack([g_lo[a] + cell * ax[a] for a in range(dim)], axis=1)
-            sd = np.asarray(sdf(pts), dtype=np.float64) + offset
-            if not np.isfinite(sd).all():
-                raise DcdcError("the walls' signed distance function returned NaN/inf")
-            dist[shell] = np.minimum(sd, 2.0 * hc)
+            shell, sd = _sdf_near_walls(sdf, wall_x, g_lo, cell, shape, radius + hc + 3 * cell)
+            dist[shell] = np.minimum(sd + offset, 2.0 * hc)
         contact = (dist, hc, amp)
     return VolumeMap(chi, g_lo, cell, h, down, contact)
 
