@@ -14,7 +14,9 @@ solver's stabilisation at full strength (the defaults: XSPH ε = 0.1, artificial
 
     python benchmarks/exchange_convergence.py [--quick] [--json benchmarks/exchange_convergence.json]
 
-``--quick`` runs only the two coarsest radii of each; ``--only``, ``--settings`` and
+``--quick`` runs only the two coarsest radii of each; ``--hourglass-radii`` other radii (the
+fourth, 8.84 mm = 12.5/√2, in ``benchmarks/exchange_convergence_hourglass_r4.json``);
+``--only``, ``--settings`` and
 ``--seeds 1 2 …`` (hourglass ensemble members with a 1 mm/s random start) select parts.
 Prints a table; the JSON holds every number and the wall times. The hourglass exchange is
 chaotic: single runs of numerically equal settings differ by several % in the drained
@@ -91,9 +93,13 @@ def main():
                     help="hourglass ensemble members (0 = unperturbed; see hourglass())")
     ap.add_argument("--settings", nargs="*", default=["default", "half", "off"],
                     choices=["default", "half", "off"])
+    ap.add_argument("--hourglass-radii", type=float, nargs="*", default=None,
+                    help="hourglass particle radii [m] (default 0.025 0.0177 0.0125)")
     a = ap.parse_args()
     lock_r = [0.01, 0.007] if a.quick else [0.01, 0.007, 0.005, 0.0035]
     hg_r = [0.025, 0.0177] if a.quick else [0.025, 0.0177, 0.0125]
+    if a.hourglass_radii:
+        hg_r = a.hourglass_radii
     cfgs = {k: v for k, v in settings(SPHConfig()).items() if k in a.settings}
     doc = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
            "numba_threads": os.environ.get("NUMBA_NUM_THREADS", "default"),

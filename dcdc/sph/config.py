@@ -39,6 +39,12 @@ class SPHConfig:
     omega: Jacobi relaxation of the pressure solves.
     divergence_solve: run DFSPH's divergence-free solve.
     viscosity: artificial kinematic viscosity added to every phase's own [m²/s].
+    smagorinsky: Smagorinsky constant C_s of a sub-particle-scale eddy viscosity
+        ν_t,i = (C_s · 2r)² |S_i| (Smagorinsky 1963; in SPH: Gotoh, Shibahara & Sakai 2001,
+        Dalrymple & Rogers 2006), added to each particle's kinematic viscosity in the Morris
+        term (:func:`dcdc.sph.terms.strain_rate`); |S| = sqrt(2 S:S), S the SPH strain rate.
+        It removes the energy that reaches the particle scale and vanishes as (2r)² under
+        refinement; 0 = off.
     xsph: strength ε of the momentum-conserving XSPH velocity filter (damps the odd-even
         particle modes that SPH's centred divergence cannot see; 0 = off).
     no_slip: walls with friction: the Morris viscosity term against the (resting) wall
@@ -94,6 +100,7 @@ class SPHConfig:
     omega: float = 0.5
     divergence_solve: bool = True
     viscosity: float = 1e-3
+    smagorinsky: float = 0.0
     xsph: float = 0.1
     no_slip: bool = False
     boundary: str = "map"
@@ -122,7 +129,7 @@ class SPHConfig:
         for name in positive:
             _check_number(self, name, lambda v: v > 0, "> 0")
         for name in ("viscosity", "xsph", "surface_tension", "sound_speed", "correction_speed",
-                     "background_pressure", "wall_contact_support"):
+                     "background_pressure", "wall_contact_support", "smagorinsky"):
             _check_number(self, name, lambda v: v >= 0, ">= 0")
         for name in ("min_iterations", "max_iterations"):
             v = getattr(self, name)

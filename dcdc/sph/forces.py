@@ -7,18 +7,22 @@ from .interfaces import csf_acceleration, pairwise_acceleration
 from .neighbourhood import Neighbourhood
 from .state import State
 from .terms import (background_acceleration, cohesion_acceleration, mixture_density,
-                    viscosity_acceleration, xsph_velocity_change)
+                    strain_rate, viscosity_acceleration, xsph_velocity_change)
 
 
 def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
                               surface_tension: float,
                               background_pressure: float = 0.0) -> np.ndarray:
-    """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``) + the walls'
+    """g + Morris viscosity (fluid-fluid; fluid-wall friction if ``no_slip``; plus the
+    Smagorinsky eddy viscosity where ``s.eddy_length2`` > 0) + the walls'
     hydrostatic share (``wall_buoyancy``) + interfacial tension (``s.interface``,
     :mod:`dcdc.sph.interfaces`) + Akinci cohesion + the force of a uniform background
     pressure (:func:`dcdc.sph.terms.background_acceleration`; a constant part of the
     pressure force, applied here so that the pressure solve that follows sees it)."""
-    a = viscosity_acceleration(s.x, s.v, s.rho0, s.mu, no_slip, nbh.rs, nbh.idx, nbh.G,
+    mu = s.mu
+    if s.eddy_length2 > 0:  # Smagorinsky: ν_t = (C_s 2r)² |S|
+        mu = s.mu + s.rho0 * s.eddy_length2 * strain_rate(s.v, nbh.rs, nbh.idx, nbh.G, s.V0)
+    a = viscosity_acceleration(s.x, s.v, s.rho0, mu, no_slip, nbh.rs, nbh.idx, nbh.G,
                                s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
     if nbh.wall_moment is not None:

@@ -192,7 +192,7 @@ class Simulator:
         sel = (lambda a: a) if active is None else (lambda a: a[active])
         return State(sel(sy.x), sel(sy.v), sel(sy.phase), sel(self._rho0), sel(self._mu),
                      sel(self._p), sel(self._p_div), sy.wall_x, self.Vb, sy.gravity, self.V0, self.h,
-                     self._interface)
+                     self._interface, (self.cfg.smagorinsky * 2.0 * sy.radius) ** 2)
 
     def _store(self, active, s: State) -> None:
         if active is None:

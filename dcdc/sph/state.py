@@ -22,6 +22,8 @@ class State:
     h: float  # kernel support
     # interfacial tension: (model, [phases, phases] coefficients of dcdc.sph.interfaces) or None
     interface: tuple[str, np.ndarray] | None = None
+    # (C_s · 2r)² of the Smagorinsky eddy viscosity (SPHConfig.smagorinsky); 0 = off
+    eddy_length2: float = 0.0
 
     @property
     def dim(self) -> int:

@@ -231,6 +231,31 @@ def jacobi_update(p, base, Ap, diag, coef, target, mask, omega):
 
 
 @nb.njit(cache=True, parallel=True)
+def strain_rate(v, rs, idx, G, V0):
+    """|S_i| = sqrt(2 S_i:S_i) with S = ½(∇v + ∇vᵀ) and the SPH velocity gradient
+    ∇v_i = V0 Σ_j (v_j - v_i) ⊗ G_ij (difference form: exact zero for a uniform flow, also
+    where the kernel is cut by a wall or a free surface). For the Smagorinsky eddy viscosity
+    (``SPHConfig.smagorinsky``)."""
+    n, d = v.shape
+    out = np.empty(n)
+    for i in nb.prange(n):
+        L = np.zeros((3, 3))
+        for e in range(rs[i], rs[i + 1]):
+            j = idx[e]
+            for a in range(d):
+                dv = v[j, a] - v[i, a]
+                for b in range(d):
+                    L[a, b] += dv * G[e, b]
+        s2 = 0.0
+        for a in range(d):
+            for b in range(d):
+                sab = 0.5 * V0 * (L[a, b] + L[b, a])
+                s2 += sab * sab
+        out[i] = math.sqrt(2.0 * s2)
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
 def viscosity_acceleration(x, v, rho0, mu, no_slip, rs, idx, G, wall_x, rsb, idxb, Gb, Vb, V0, h):
     """Morris et al. (1997) viscosity with harmonic-mean dynamic viscosity μ_ij (momentum
     conserving between phases), plus, if ``no_slip``, friction against the resting wall
