@@ -235,11 +235,13 @@ def strain_rate(v, rs, idx, G, V0):
     """|S_i| = sqrt(2 S_i:S_i) with S = ½(∇v + ∇vᵀ) and the SPH velocity gradient
     ∇v_i = V0 Σ_j (v_j - v_i) ⊗ G_ij (difference form: exact zero for a uniform flow, also
     where the kernel is cut by a wall or a free surface). For the Smagorinsky eddy viscosity
-    (``SPHConfig.smagorinsky``)."""
+    (``SPHConfig.smagorinsky``). The per-particle gradients live in one array allocated
+    before the loop (no heap allocation per particle inside the parallel loop)."""
     n, d = v.shape
     out = np.empty(n)
+    grad = np.zeros((n, d, d))
     for i in nb.prange(n):
-        L = np.zeros((3, 3))
+        L = grad[i]
         for e in range(rs[i], rs[i + 1]):
             j = idx[e]
             for a in range(d):
