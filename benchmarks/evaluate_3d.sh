@@ -30,4 +30,13 @@ wait
 ev $M --data "$DATA/canyon10" --steps "$STEPS" --json benchmarks/eval_3d_canyon10.json \
     --plots out/eval_3d/canyon10 &
 wait
+# the showcases again from the SPH state at 0.2 s (frame 10), after the lattice start has
+# settled onto the walls: separates the start-up burst from the rest of the dynamics
+# (docs/models.md, "The cocktail's start-up burst")
+ev $M --data "$DATA/test_scenes" --trajectory cocktail_3d --trajectory hourglass_3d --start-frame 10 \
+    --steps "$((STEPS - 10))" --json benchmarks/eval_3d_showcases_from02s.json \
+    --plots out/eval_3d/showcases_from02s &
+ev $M --data "$DATA/canyon10" --start-frame 10 --steps "$((STEPS - 10))" \
+    --json benchmarks/eval_3d_canyon10_from02s.json --plots out/eval_3d/canyon10_from02s &
+wait
 python benchmarks/eval_tables.py benchmarks/eval_3d_*.json

@@ -7,6 +7,7 @@ import torch
 
 from dcdc import metrics as M
 from dcdc.data.dataset import Dataset
+from dcdc.errors import DcdcError
 from dcdc.evaluate.rollout import Guard
 from dcdc.evaluate.scores import aggregate, number_density, one_two_step_errors, score_trajectory
 from dcdc.model.checkpoint import save_checkpoint
@@ -70,6 +71,32 @@ def test_score_trajectory_fields_and_truth_metrics():
     json.dumps(r)  # plain JSON types only
 
 
+def test_score_trajectory_from_a_later_frame():
+    """--start-frame: the rollout starts from ground-truth frame s0 and is compared with
+    frames s0 + k; its first step is the network's n+1 prediction from frame s0."""
+    traj = Dataset(SAMPLE)["random_200000_2d"]
+    net = zero_net()
+    guard = Guard(max_in_walls=1.0, check_domain=False)
+    r = score_trajectory(net, traj, stride=10, steps=3, guard=guard, contact=False,
+                         start_frame=20)
+    assert r["start_frame"] == 20 and r["steps"] == 3
+    x23 = traj.position[23].astype(float)
+    assert r["com_height_true"] == pytest.approx(
+        M.phase_heights(x23, traj.phase, len(traj.phases)) - traj.attrs["domain_min"][1])
+    # step 1 of a zero network from frame 20 is ballistic (as in the n+1 test above)
+    x, v = traj.position[20].astype(float), traj.velocity[20].astype(float)
+    x1 = x + DT * v + 0.5 * DT * DT * traj.gravity
+    ref = 1e3 * np.linalg.norm(x1 - traj.position[21], axis=1).mean()
+    assert r["curves"]["position_mm"][0] == pytest.approx(ref, rel=1e-3)
+    assert r["curves"]["time"][0] == pytest.approx(float(traj.time[21]))
+    # the n+1 / n+2 errors do not depend on where the rollout starts
+    r0 = score_trajectory(net, traj, stride=10, steps=3, guard=guard, contact=False)
+    assert r["err_n1_mm"] == r0["err_n1_mm"] and r["err_n2_mm"] == r0["err_n2_mm"]
+    assert r["com_height_true"] != r0["com_height_true"]
+    with pytest.raises(DcdcError, match="start frame"):
+        score_trajectory(net, traj, steps=3, start_frame=traj.n_frames - 1)
+
+
 def test_aggregate():
     rows = [{"err_n1_mm": 1.0, "rollout_mm": None, "order_ok": True, "order_ok_true": True,
              "stable": True, "steps": 10},
@@ -112,6 +139,20 @@ def test_evaluate_cli_refuses_a_mismatched_model_before_work(ckpts, tmp_path, ca
                            "--json", str(tmp_path / "e.json")], capsys)
     assert code == 2 and err.startswith("error:") and "3-D" in err and err.count("\n") == 1
     assert not (tmp_path / "e.json").exists()
+
+
+def test_evaluate_cli_start_frame(ckpts, tmp_path, capsys):
+    js = tmp_path / "e.json"
+    base = ["evaluate", "--model", str(ckpts / "zero.pt"), "--data", SAMPLE, "--trajectory",
+            "random_200001_2d", "--steps", "2", "--max-in-walls", "1"]
+    code, _, err = _cli(base + ["--start-frame", "10", "--json", str(js)], capsys)
+    assert code == 0, err
+    res = json.loads(js.read_text())
+    assert res["start_frame"] == 10
+    assert res["trajectories"]["random_200001_2d"]["zero"]["start_frame"] == 10
+    code, _, err = _cli(base + ["--start-frame", "100000"], capsys)
+    assert code == 2 and err.startswith("error:") and "--start-frame" in err
+    assert err.count("\n") == 1
 
 
 def test_train_simulate_evaluate_end_to_end(tmp_path, capsys):

@@ -255,7 +255,34 @@ def test_simulate_scene_guard_stop_is_written_and_reported(ckpts, tmp_path, caps
         assert stats["stop_cause"] == "walls" and stats["stop_step"] == g["position"].shape[0]
 
 
+def test_simulate_settle_starts_from_the_scenes_sph_state(ckpts, tmp_path, capsys):
+    """--settle T: the network starts from the scene's own SPH solver state at T."""
+    from dcdc.scene import get_scene
+    from dcdc.sph import Simulator
+
+    out = tmp_path / "settled.h5"
+    code, _, err = _cli(["simulate", "--model", str(ckpts / "zero.pt"), "--scene", "dam_break",
+                         "--dim", "2", "--resolution", "0.4", "--settle", "0.04", "--steps", "2",
+                         "--max-in-walls", "1", "--out", str(out)], capsys)
+    assert code == 0, err
+    r = Dataset(out)[0]
+    assert r.n_frames == 3 and r.time[0] == pytest.approx(0.04)
+    assert float(r.attrs["settled_by_sph_s"]) == pytest.approx(0.04)
+    sc = get_scene("dam_break")
+    sy = sc.realize(dim=2, resolution=0.4, frames=3)
+    x0 = sy.x.copy()
+    sph = Simulator(sy, sc.check_solver())
+    sph.advance(0.02)
+    sph.advance(0.02)
+    assert np.abs(sy.x - x0).max() > 1e-4  # the SPH frames moved the fluid
+    assert r.position[0] == pytest.approx(sy.x, abs=1e-6)
+    assert r.velocity[0] == pytest.approx(sy.v, abs=1e-5)
+
+
 @pytest.mark.parametrize("args,msg", [
+    (["--dataset", SAMPLE, "--trajectory", "random_0_2d", "--settle", "0.2"], "--settle"),
+    (["--scene", "dam_break", "--dim", "2", "--settle", "0.03"], "multiple"),
+    (["--scene", "dam_break", "--dim", "2", "--settle", "-1"], "> 0"),
     (["--scene", "dam_break", "--dataset", SAMPLE], "exactly one"),
     (["--dataset", SAMPLE], "--trajectory"),
     (["--dataset", SAMPLE, "--trajectory", "random_0_2d", "--dim", "2"], "--dim"),

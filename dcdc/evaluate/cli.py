@@ -36,6 +36,35 @@ def _start_from_scene(scene: str, dim, resolution: float, model, steps, max_part
                        "scene_dim": sc.dim, "resolution": resolution}
 
 
+def settle_frames(seconds: float, frame_dt: float) -> int:
+    """Frames of ``frame_dt`` in ``seconds``; one-line error unless a positive whole number."""
+    frames = int(round(seconds / frame_dt))
+    if frames < 1 or abs(frames * frame_dt - seconds) > 1e-6 * frame_dt:
+        raise DcdcError(f"--settle must be a positive multiple of the model's frame Δt "
+                        f"{frame_dt:g} s (got {seconds:g})")
+    return frames
+
+
+def settle_with_sph(system, scene: str, seconds: float, frame_dt: float, progress=None) -> float:
+    """Advance ``system`` in place by the scene's own SPH solver (its ``[solver]`` table) for
+    ``seconds`` (a whole number of frames) and return the time reached.
+
+    A scene starts from a lattice one particle radius off its walls; the SPH solver settles
+    it onto the walls and compresses deep columns within the first ≈ 0.15 s, a transient the
+    3-D networks turn into a burst in deep containers (docs/models.md, "The cocktail's
+    start-up burst"). ``dcdc simulate --settle`` hands the network the settled state."""
+    from ..scene import get_scene
+    from ..sph import Simulator
+
+    frames = settle_frames(seconds, frame_dt)
+    sph = Simulator(system, get_scene(scene).check_solver())
+    for _ in range(frames):
+        sph.advance(frame_dt)
+        if progress:
+            progress(1)
+    return frames * frame_dt
+
+
 def _start_from_dataset(dataset: str, name: str, frame: int, steps):
     """(system, start time, n_steps, attrs) of a ground-truth trajectory's frame."""
     from ..data.dataset import Dataset
@@ -72,10 +101,14 @@ def _start_from_dataset(dataset: str, name: str, frame: int, steps):
                    "step (the SPH solver's wall contact); --no-contact: the network alone")
 @click.option("--device", default="cpu", show_default=True)
 @click.option("--max-particles", type=float, default=None, help="raise the scene's particle budget")
+@click.option("--settle", type=float, default=None,
+              help="with --scene: run the scene's SPH solver for the first SECONDS (e.g. 0.2) "
+                   "and start the network from that settled state (the file starts there)")
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="rollout .h5 file")
 @click.option("--overwrite", is_flag=True, help="replace an existing --out file")
 def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, start_frame, steps,
-                     max_speed, max_in_walls, contact, device, max_particles, out, overwrite):
+                     max_speed, max_in_walls, contact, device, max_particles, settle, out,
+                     overwrite):
     """Roll out a learned model and write the trajectory (dataset HDF5 layout)."""
     from tqdm import tqdm
 
@@ -95,12 +128,30 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
         raise DcdcError("--dim goes with --scene (a trajectory has its own dimension)")
     if steps is not None and steps < 1:
         raise DcdcError(f"--steps must be >= 1 (got {steps})")
+    if settle is not None and scene is None:
+        raise DcdcError("--settle goes with --scene (a trajectory's frames are already settled: "
+                        "use --start-frame)")
+    if settle is not None and not settle > 0:
+        raise DcdcError(f"--settle must be > 0 seconds (got {settle:g})")
     out = check_file(out, overwrite)
     guard = Guard(max_speed=max_speed, max_in_walls=max_in_walls)
     model, ck = load_checkpoint(model_path, device=device)
     t_start = 0.0
+    if settle is not None:
+        settle_frames(settle, model.cfg.frame_dt)  # a bad value fails before any work
+        if scene.endswith(".json"):
+            raise DcdcError("--settle needs a dcdc scene (.toml or built-in): a "
+                            "DeepLagrangianFluids scene has no [solver] table")
     if scene is not None:
         system, n, attrs = _start_from_scene(scene, dim, resolution, model, steps, max_particles)
+        if settle is not None:
+            frames = settle_frames(settle, model.cfg.frame_dt)
+            with interrupt.handling(), tqdm(total=frames, unit="SPH frame",
+                                            desc="settling (SPH)") as bar:
+                t_start = settle_with_sph(system, scene, settle, model.cfg.frame_dt, bar.update)
+            if steps is None:  # the scene's duration in all
+                n = max(1, n - frames)
+            attrs["settled_by_sph_s"] = t_start
     else:
         system, t_start, n, attrs, fdt = _start_from_dataset(dataset, trajectory, start_frame, steps)
         check_compatible(model, frame_dt=fdt, what=f"trajectory {trajectory}")
@@ -216,6 +267,9 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
 @click.option("--data", required=True, help="ground-truth dataset (directory or .h5)")
 @click.option("--trajectory", "names", multiple=True, help="only these trajectories (repeatable)")
 @click.option("--steps", type=int, default=None, help="rollout steps (default: every frame)")
+@click.option("--start-frame", type=int, default=0, show_default=True,
+              help="start the rollouts from this ground-truth frame instead of the initial "
+                   "state (n+1 / n+2 still use every frame)")
 @click.option("--stride", type=int, default=5, show_default=True,
               help="n+1 / n+2 errors from every STRIDE-th ground-truth frame")
 @click.option("--max-speed", type=float, default=50.0, show_default=True, help="guard [m/s]")
@@ -226,8 +280,8 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
 @click.option("--plots", "plot_dir", type=click.Path(file_okay=False), default=None,
               help="write error-over-time plots (PNG per trajectory) here")
 @click.option("--overwrite", is_flag=True, help="replace an existing --json file / plots")
-def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls, contact,
-                     json_path, plot_dir, overwrite):
+def evaluate_command(models, data, names, steps, start_frame, stride, max_speed, max_in_walls,
+                     contact, json_path, plot_dir, overwrite):
     """Score models against the SPH ground truth: table on stdout, JSON, plots."""
     from tqdm import tqdm
 
@@ -251,6 +305,10 @@ def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls
     trajs = [ds[n] for n in names] if names else list(ds)
     if not trajs:
         raise DcdcError(f"{data}: no finished trajectories to evaluate")
+    for t in trajs:
+        if not 0 <= start_frame < t.n_frames - 1:
+            raise DcdcError(f"--start-frame {start_frame} outside {t.name} (a rollout can start "
+                            f"at frames 0..{t.n_frames - 2})")
     nets = [load_checkpoint(m)[0] for m in models]
     labels = _labels(models)
     for net, m in zip(nets, models):  # every mismatch before any work
@@ -258,14 +316,16 @@ def evaluate_command(models, data, names, steps, stride, max_speed, max_in_walls
             check_compatible(net, dim=t.dim, radius=t.radius, frame_dt=t.frame_dt,
                              what=f"trajectory {t.name} of {data}")
     results = {"data": str(data), "models": dict(zip(labels, map(str, models))),
-               "stride": stride, "steps": steps, "contact": contact, "trajectories": {},
+               "stride": stride, "steps": steps, "start_frame": start_frame,
+               "contact": contact, "trajectories": {},
                "aggregate": {}}
     with interrupt.handling(), tqdm(total=len(trajs) * len(nets), unit="rollout") as bar:
         for t in trajs:
             per = {}
             for label, net in zip(labels, nets):
                 bar.set_postfix_str(f"{t.name} / {label}")
-                per[label] = score_trajectory(net, t, stride, steps, guard, contact=contact)
+                per[label] = score_trajectory(net, t, stride, steps, guard, contact=contact,
+                                              start_frame=start_frame)
                 interrupt.check()
                 bar.update(1)
             results["trajectories"][t.name] = per

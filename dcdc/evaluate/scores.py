@@ -12,6 +12,7 @@ import numpy as np
 import torch
 
 from .. import metrics as M
+from ..errors import DcdcError
 from .rollout import Guard, NeuralSimulator, run
 
 MM = 1e3  # metres -> millimetres
@@ -102,19 +103,25 @@ def physical_state(x, phase, phases, radius, wall_x, domain_min, active):
 
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                      guard: Guard | None = None, sinkhorn_points: int = 1000,
-                     contact: bool = True) -> dict:
+                     contact: bool = True, start_frame: int = 0) -> dict:
     """All scores of ``model`` on ground-truth trajectory ``traj`` (a
-    :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors (the network alone), a rollout
-    from frame 0 over ``steps`` (default: every frame; with the walls' contact unless
-    ``contact`` is False) with its per-frame errors and the final-state physics. The
-    rollout's per-frame curves are under ``"curves"``."""
+    :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors (the network alone, over the
+    whole trajectory), a rollout from frame ``start_frame`` (default 0: the scene's initial
+    state) over ``steps`` (default: every remaining frame; with the walls' contact unless
+    ``contact`` is False) with its per-frame errors against the frames it reaches, and the
+    final-state physics. The rollout's per-frame curves are under ``"curves"``."""
     from ..model.checkpoint import check_compatible
 
     check_compatible(model, dim=traj.dim, radius=traj.radius, frame_dt=traj.frame_dt,
                      what=f"trajectory {traj.name}")
+    s0 = int(start_frame)
+    if not 0 <= s0 < traj.n_frames - 1:
+        raise DcdcError(f"start frame {s0} outside {traj.name} (frames 0..{traj.n_frames - 2} "
+                        f"can start a rollout)")
     n1, n2, starts = one_two_step_errors(model, traj, stride)
-    n = traj.n_frames - 1 if steps is None else min(int(steps), traj.n_frames - 1)
-    sim = NeuralSimulator(model, traj.system(0), guard=guard, time=float(traj.time[0]),
+    left = traj.n_frames - 1 - s0
+    n = left if steps is None else min(int(steps), left)
+    sim = NeuralSimulator(model, traj.system(s0), guard=guard, time=float(traj.time[s0]),
                           contact=contact)
     ro = run(sim, n)
     K = ro.steps
@@ -122,24 +129,26 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
     mass = traj.density.astype(np.float64) * rest_volume(traj.radius, traj.dim)
     pos_t, vel_t = traj.position, traj.velocity
     near, perr, ke_p, ke_t, mom = [], [], [], [], []
-    for k in range(1, K + 1):
-        act = traj.active(k)
-        xp, xt = ro.position[k][act], pos_t[k][act]
+    for k in range(1, K + 1):  # rollout frame k is ground-truth frame s0 + k
+        act = traj.active(s0 + k)
+        xp, xt = ro.position[k][act], pos_t[s0 + k][act]
         near.append(M.nearest_error(xp, xt))
         perr.append(M.position_error(xp, xt))
         ke_p.append(M.kinetic_energy(ro.velocity[k][act], mass[act]))
-        ke_t.append(M.kinetic_energy(vel_t[k][act], mass[act]))
-        dP = M.momentum(ro.velocity[k][act], mass[act]) - M.momentum(vel_t[k][act], mass[act])
+        ke_t.append(M.kinetic_energy(vel_t[s0 + k][act], mass[act]))
+        dP = (M.momentum(ro.velocity[k][act], mass[act])
+              - M.momentum(vel_t[s0 + k][act], mass[act]))
         mom.append(float(np.linalg.norm(dP)) / max(float(mass[act].sum()), 1e-30))
-    act = traj.active(K)
+    act = traj.active(s0 + K)
     dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
     pred = physical_state(ro.position[K].astype(np.float64), phase, phases, traj.radius,
                           traj.wall_x, dmin, act)
-    true = physical_state(pos_t[K].astype(np.float64), phase, phases, traj.radius,
+    true = physical_state(pos_t[s0 + K].astype(np.float64), phase, phases, traj.radius,
                           traj.wall_x, dmin, act)
     with np.errstate(invalid="ignore", divide="ignore"):
         com_rel = np.abs(pred["com_height"] - true["com_height"]) / np.abs(true["com_height"])
-    sink = [M.sinkhorn_distance(ro.position[K][act & (phase == p)], pos_t[K][act & (phase == p)],
+    sink = [M.sinkhorn_distance(ro.position[K][act & (phase == p)],
+                                pos_t[s0 + K][act & (phase == p)],
                                 blur=2 * traj.radius, max_points=sinkhorn_points)
             for p in range(len(phases)) if (act & (phase == p)).any()]
     ke_scale = float(np.mean(ke_t)) if ke_t else float("nan")
@@ -147,7 +156,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
     vol_err = M.volume_error(pred["volumes"], true["volumes"])
     return {
         "trajectory": traj.name, "particles": traj.n_particles, "phases": len(phases),
-        "frames": traj.n_frames, "steps_requested": n, "steps": K,
+        "frames": traj.n_frames, "start_frame": s0, "steps_requested": n, "steps": K,
         "stable": st is None, "stop_cause": st.cause if st else "",
         "stopped": str(st) if st else "", "steps_to_failure": st.step if st else None,
         "starts_n1n2": starts,
