@@ -122,6 +122,23 @@ def test_sampler_follows_the_curriculum_and_is_a_function_of_seed_and_step():
         s.check_stages([1.0])
 
 
+def test_sampler_oversamples_the_start_of_the_trajectories():
+    ds = Dataset(TRAIN)
+    plain = WindowSampler(ds, 3, seed=7)
+    # early_fraction 0 draws exactly what the plain sampler draws
+    assert WindowSampler(ds, 3, seed=7, early_fraction=0.0).batch(3, 8, None) == plain.batch(3, 8, None)
+    starts = [st for k in range(50) for _, st in plain.batch(k, 8, None)]
+    assert np.mean(np.array(starts) < 5) < 0.3  # uniform: 5 of 49 starts per trajectory
+    allearly = WindowSampler(ds, 3, seed=7, early_fraction=1.0, early_frames=5)
+    got = [w for k in range(50) for w in allearly.batch(k, 8, 1.1)]
+    assert all(st < 5 for _, st in got) and all(max_density_ratio(ds[t]) < 1.1 for t, _ in got)
+    half = WindowSampler(ds, 3, seed=7, early_fraction=0.5, early_frames=5)
+    frac = np.mean([st < 5 for k in range(100) for _, st in half.batch(k, 8, None)])
+    assert 0.45 < frac < 0.65  # 0.5 swapped in, plus the uniform draws' own ≈ 10 %
+    assert half.batch(9, 8, None) == WindowSampler(ds, 3, seed=7, early_fraction=0.5,
+                                                   early_frames=5).batch(9, 8, None)
+
+
 def test_augmentation_keeps_gravity_and_distances():
     rng = np.random.default_rng(0)
     n, m = 30, 10

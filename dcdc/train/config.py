@@ -25,12 +25,20 @@ class DataConfig:
     stride: int = 1  # frames between the starts of consecutive windows
     rotate: bool = True  # 3-D: random rotation about gravity; 2-D: random mirror across it
     noise_std: float = 0.0  # Gaussian noise on the input positions [m] (0 = off)
+    # oversample the start of the trajectories (a scene's lattice start settling onto its
+    # walls, docs/models.md "The cocktail's start-up burst"): this fraction of each batch's
+    # windows starts at a frame < early_frames (0 = uniform over all windows)
+    early_fraction: float = 0.0
+    early_frames: int = 10
 
     def validate(self):
         check(bool(self.train), "data.train", "a dataset path", self.train)
         check(self.batch_scenes >= 1, "data.batch_scenes", ">= 1", self.batch_scenes)
         check(self.stride >= 1, "data.stride", ">= 1", self.stride)
         check(self.noise_std >= 0, "data.noise_std", ">= 0", self.noise_std)
+        check(0 <= self.early_fraction <= 1, "data.early_fraction", "in [0, 1]",
+              self.early_fraction)
+        check(self.early_frames >= 1, "data.early_frames", ">= 1", self.early_frames)
 
 
 @dataclass

@@ -46,8 +46,10 @@ def dataset_info(ds: Dataset, label: str) -> dict:
 class WindowSampler:
     """Windows of ``length`` frames of a dataset, drawn under a curriculum."""
 
-    def __init__(self, ds: Dataset, length: int, stride: int = 1, seed: int = 0):
+    def __init__(self, ds: Dataset, length: int, stride: int = 1, seed: int = 0,
+                 early_fraction: float = 0.0, early_frames: int = 10):
         self.ds, self.length, self.seed = ds, length, seed
+        self.early_fraction, self.early_frames = float(early_fraction), int(early_frames)
         self.windows = np.array(ds.windows(length, stride), dtype=np.int64).reshape(-1, 2)
         if len(self.windows) == 0:
             raise DcdcError(f"{ds.path}: no trajectory has the {length} frames a training "
@@ -72,8 +74,13 @@ class WindowSampler:
         """The (trajectory, start) windows of ``step`` (a pure function of seed and step)."""
         pool = self.eligible(cap)
         rng = np.random.default_rng([self.seed, step])
-        pick = rng.choice(len(pool), size=size, replace=size > len(pool))
-        return [tuple(int(v) for v in self.windows[pool[k]]) for k in pick]
+        pick = pool[rng.choice(len(pool), size=size, replace=size > len(pool))]
+        if self.early_fraction > 0:
+            early = pool[self.windows[pool, 1] < self.early_frames]
+            swap = rng.random(size) < self.early_fraction
+            if len(early) and swap.any():
+                pick[swap] = early[rng.choice(len(early), size=int(swap.sum()))]
+        return [tuple(int(v) for v in self.windows[k]) for k in pick]
 
     def fixed(self, n: int) -> list[tuple[int, int]]:
         """``n`` windows spread evenly over the dataset (validation)."""

@@ -218,7 +218,8 @@ class Trainer:
         self.train_ds = Dataset(cfg.data.train)
         self.info = dataset_info(self.train_ds, "training dataset")
         length = cfg.loss.unroll + 1
-        self.sampler = WindowSampler(self.train_ds, length, cfg.data.stride, cfg.optim.seed)
+        self.sampler = WindowSampler(self.train_ds, length, cfg.data.stride, cfg.optim.seed,
+                                     cfg.data.early_fraction, cfg.data.early_frames)
         self.sampler.check_stages([s.max_ratio for s in cfg.curriculum.stages])
         self.val = None
         if cfg.data.val:
