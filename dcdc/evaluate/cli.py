@@ -45,9 +45,9 @@ def settle_frames(seconds: float, frame_dt: float) -> int:
     return frames
 
 
-def settle_with_sph(system, scene: str, seconds: float, frame_dt: float, progress=None) -> float:
+def settle_with_sph(system, scene: str, frames: int, frame_dt: float, progress=None) -> float:
     """Advance ``system`` in place by the scene's own SPH solver (its ``[solver]`` table) for
-    ``seconds`` (a whole number of frames) and return the time reached.
+    ``frames`` frames of ``frame_dt`` (:func:`settle_frames`) and return the time reached.
 
     A scene starts from a lattice one particle radius off its walls; the SPH solver settles
     it onto the walls and compresses deep columns within the first ≈ 0.15 s, a transient the
@@ -56,7 +56,6 @@ def settle_with_sph(system, scene: str, seconds: float, frame_dt: float, progres
     from ..scene import get_scene
     from ..sph import Simulator
 
-    frames = settle_frames(seconds, frame_dt)
     sph = Simulator(system, get_scene(scene).check_solver())
     for _ in range(frames):
         sph.advance(frame_dt)
@@ -137,18 +136,17 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
     guard = Guard(max_speed=max_speed, max_in_walls=max_in_walls)
     model, ck = load_checkpoint(model_path, device=device)
     t_start = 0.0
-    if settle is not None:
-        settle_frames(settle, model.cfg.frame_dt)  # a bad value fails before any work
+    if settle is not None:  # a bad value fails before any work
         if scene.endswith(".json"):
             raise DcdcError("--settle needs a dcdc scene (.toml or built-in): a "
                             "DeepLagrangianFluids scene has no [solver] table")
+        frames = settle_frames(settle, model.cfg.frame_dt)
     if scene is not None:
         system, n, attrs = _start_from_scene(scene, dim, resolution, model, steps, max_particles)
         if settle is not None:
-            frames = settle_frames(settle, model.cfg.frame_dt)
             with interrupt.handling(), tqdm(total=frames, unit="SPH frame",
                                             desc="settling (SPH)") as bar:
-                t_start = settle_with_sph(system, scene, settle, model.cfg.frame_dt, bar.update)
+                t_start = settle_with_sph(system, scene, frames, model.cfg.frame_dt, bar.update)
             if steps is None:  # the scene's duration in all
                 n = max(1, n - frames)
             attrs["settled_by_sph_s"] = t_start
