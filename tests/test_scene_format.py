@@ -104,6 +104,19 @@ def test_overlap_inside_wall_and_outside_domain_are_reported():
         parse(out).realize()
 
 
+@pytest.mark.parametrize("name", ["cocktail", "canyon"])
+def test_stacked_fills_share_a_face_plane_once(name):
+    """At resolution 0.5 a layer face of these scenes lies on a lattice plane that both
+    stacked fills would take; it goes to the block listed first, with no duplicate points
+    and no phase left empty (was refused as an overlap)."""
+    for dim in (2, 3):
+        p = get_scene(name).realize(dim=dim, resolution=0.5)
+        assert len(np.unique(p.x.round(9), axis=0)) == len(p.x)
+        assert set(np.unique(p.phase)) == set(range(len(p.phases)))
+        full = get_scene(name).realize(dim=dim, resolution=1.0)
+        assert 0 < len(p.x) < len(full.x)
+
+
 def scene_with_mesh_wall(tmp_path, wall_fields: str) -> Path:
     """MINIMAL plus a mesh wall ``walls.m`` with the given TOML fields, written to a file."""
     text = MINIMAL.replace('[[fluid]]\nphase = "water"', '[walls.m]\nshape = "mesh"\n' + wall_fields

@@ -605,6 +605,25 @@ def _mesh_fill(field: str, f: dict, dim: int, spacing: float, anchor, base_dir, 
     return pts[inside(pts)] if len(pts) else pts
 
 
+def _drop_shared_face(pts: np.ndarray, hit: np.ndarray, f: dict, spacing: float) -> np.ndarray:
+    """``pts`` of a ``fill`` block less the particles ``hit`` (touching an earlier block) when
+    all of them lie on one face plane of the block's box: two stacked fills that share a face
+    both take the lattice plane lying on it (at resolutions where one does), and the plane
+    belongs to the block listed first. Any other contact is a real overlap and is kept, so
+    the caller reports it."""
+    lo = np.array(f["min"]) if f["min"] is not None else None
+    hi = np.array(f["max"]) if f["max"] is not None else None
+    tol = 1e-6 * spacing
+    for bound in (lo, hi):
+        if bound is None:
+            continue
+        for a in range(pts.shape[1]):
+            on = np.abs(pts[:, a] - bound[a]) < tol
+            if on.any() and not (hit & ~on).any():
+                return pts[~hit]
+    return pts
+
+
 def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, solids, union,
                   field: str = "fluid", base_dir: Path | None = None, meshes: dict | None = None):
     from ..geometry import lattice, shapes as sh
@@ -957,6 +976,9 @@ class Scene:
                                     f"domain{at}")
                 for k, (lab2, prev) in enumerate(blocks):
                     nb = radius_search(pts, 0.75 * spacing, prev)
+                    if nb.n_edges and f["shape"] == "fill":
+                        pts = _drop_shared_face(pts, nb.counts > 0, f, spacing)
+                        nb = radius_search(pts, 0.75 * spacing, prev)
                     if nb.n_edges:
                         raise DcdcError(f"{src}: {label} overlaps {lab2} "
                                         f"({int((nb.counts > 0).sum())} particles){at}")
