@@ -9,7 +9,9 @@ if they did not, it exits non-zero with that reason. With ``--model M`` (a check
 a shipped model's name, docs/models.md) the learned simulator runs the same scene from the
 same start: its trajectory, a strip of SPH above the model (same camera, the nearest-
 particle error per panel) and its numbers (steps before the guard stopped it, mean
-nearest-particle error, final order) are added. The output folder is checked before the
+nearest-particle error, final order) are added; ``--settle T`` starts the network from the
+SPH state at T s instead of the lattice start (the 3-D networks burst from a deep lattice
+column, docs/models.md). The output folder is checked before the
 simulation and written whole at the end (an existing one only with ``--overwrite``).
 """
 from __future__ import annotations
@@ -62,7 +64,11 @@ def order_ok(traj, frame: int = -1) -> bool:
 @click.option("--model", "model_path", default=None,
               help="also run this learned model (checkpoint or shipped name, e.g. dcdc2d) "
                    "beside SPH")
-def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles, model_path):
+@click.option("--settle", type=float, default=None,
+              help="with --model: hand the network the SPH state at SECONDS (e.g. 0.2) instead "
+                   "of the lattice start; its file repeats the SPH frames before that")
+def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles, model_path,
+                 settle):
     """Simulate a built-in multiphase scene with SPH and write its result.
 
     Exits with status 2 when the phases do not end in density order (heavy below)."""
@@ -82,6 +88,8 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         from .model.checkpoint import check_compatible, load_checkpoint
         net, _ = load_checkpoint(model_path)
         check_compatible(net, dim=int(dim), what=f"demo scene {scene} in {dim}-D")
+    elif settle is not None:
+        raise DcdcError("--settle goes with --model (it hands the learned model the SPH state)")
     if resolution is None:
         resolution = DEMO_RESOLUTION if scene == DEMO_SCENE else 1.0
     job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration,
@@ -89,6 +97,13 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     job.max_particles = max_particles
     sc = parse(job.text(), job.source)
     n_frames = int(round((duration or sc.duration) / sc.frame_dt))
+    start = 0
+    if settle is not None:
+        from .evaluate.cli import settle_frames
+        start = settle_frames(settle, sc.frame_dt)
+        if start >= n_frames:
+            raise DcdcError(f"--settle {settle:g} s is not before the end of the run "
+                            f"({n_frames * sc.frame_dt:g} s)")
     out.parent.mkdir(parents=True, exist_ok=True)
     click.echo(f"simulating {job.name} ({n_frames} frames of {sc.frame_dt} s) with the SPH solver")
     # every output goes into a temporary directory renamed into place at the end: an
@@ -111,7 +126,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         neural = None
         if net is not None:
             check_compatible(net, frame_dt=sc.frame_dt, what=f"scene {sc.name}")
-            neural = _neural_beside(net, model_path, sc, job, traj, n_frames, tmp, names)
+            neural = _neural_beside(net, model_path, sc, traj, n_frames, tmp, names, start)
     click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
     click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
@@ -128,9 +143,13 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
                         "are not in density order, heavy below")
 
 
-def _neural_beside(net, model_path, sc, job, traj, n_frames: int, tmp, names: list) -> str:
-    """Run ``net`` on the demo scene from the SPH run's start; write its trajectory and a
-    strip of SPH above the model into ``tmp`` (names appended); returns the report line."""
+def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
+                   start: int = 0) -> str:
+    """Run ``net`` on the demo scene from the SPH run's frame ``start`` (0: the lattice
+    start; later: the settled state, docs/models.md "The cocktail's start-up burst"); write
+    its trajectory (the SPH frames before ``start`` first, so both files share frame times)
+    and a strip of SPH above the model into ``tmp`` (names appended); returns the report
+    line. The error is averaged over the network's frames only."""
     import imageio.v3 as iio
     from tqdm import tqdm
 
@@ -141,20 +160,22 @@ def _neural_beside(net, model_path, sc, job, traj, n_frames: int, tmp, names: li
     from .render.figures import Figure, strip_frames
     from .render.frames import default_camera
 
-    system = sc.realize(dim=job.dim, resolution=job.resolution, frames=n_frames + 1,
-                        max_particles=job.max_particles)
-    sim = NeuralSimulator(net, system)
-    click.echo(f"simulating {job.name} with the learned model {model_path} ({net.name})")
-    with tqdm(total=n_frames, unit="step") as bar:
-        ro = run(sim, n_frames, progress=bar.update, interrupt_check=interrupt.check)
-    name = f"{job.name}_{net.name}"
+    sim = NeuralSimulator(net, traj.system(start), time=float(traj.time[start]))
+    since = f" from the SPH state at {traj.time[start]:g} s" if start else ""
+    click.echo(f"simulating {traj.name} with the learned model {model_path} ({net.name}){since}")
+    with tqdm(total=n_frames - start, unit="step") as bar:
+        ro = run(sim, n_frames - start, progress=bar.update, interrupt_check=interrupt.check)
+    if start:
+        ro = prefixed(ro, traj, start)
+    name = f"{traj.name}_{net.name}"
     write_rollout(tmp / f"{name}.h5", name, ro, sim.system,
                   {"scene": sc.name, "frame_dt": sim.dt, "split": "rollout",
-                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path)})
+                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path),
+                   "settled_by_sph_s": float(traj.time[start])})
     pred = Dataset(tmp / f"{name}.h5")[name]
     n = pred.n_frames
     err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)
-           for f in range(n)]
+           for f in range(start, n)]
     fig = Figure.build([traj, pred], default_camera(traj, 360), None, 2, True)
     fig.labels = ["SPH", f"learned: {model_path}"]
     times = ",".join(f"{t:g}" for t in np.linspace(0.0, traj.time[n - 1], 4).round(2))
@@ -162,6 +183,20 @@ def _neural_beside(net, model_path, sc, job, traj, n_frames: int, tmp, names: li
         iio.imwrite(fh, fig.strip(strip_frames(traj, times)), extension=".png")
     names += [f"{name}.h5", f"{name}_compare.png"]
     stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
-    return (f"learned model: {ro.steps} of {n_frames} steps ({stop}), {ro.ms_per_step:.1f} ms "
+    return (f"learned model{since}: {ro.steps - start} of {n_frames - start} steps ({stop}), "
+            f"{ro.ms_per_step:.1f} ms "
             f"per step, mean nearest-particle error {1e3 * float(np.mean(err)):.1f} mm, "
             f"final order heavy-below: {'yes' if order_ok(pred) else 'NO'}")
+
+
+def prefixed(ro, traj, start: int):
+    """``ro`` (a rollout from ``traj``'s frame ``start``) preceded by ``traj``'s frames
+    0..start−1, so that frame k of both is the same time (no wall counts for SPH frames)."""
+    import dataclasses
+    zeros = np.zeros(start, dtype=np.int64)
+    return dataclasses.replace(
+        ro, position=np.concatenate([traj.position[:start].astype(ro.position.dtype), ro.position]),
+        velocity=np.concatenate([traj.velocity[:start].astype(ro.velocity.dtype), ro.velocity]),
+        time=np.concatenate([traj.time[:start], ro.time]),
+        in_walls=np.concatenate([zeros, ro.in_walls]),
+        contacts=None if ro.contacts is None else np.concatenate([zeros, ro.contacts]))

@@ -77,3 +77,28 @@ def test_demo_refuses_a_model_of_another_dimension_before_simulating(tmp_path, c
                                 "dcdc2d", "--out", tmp_path / "d"], capsys)
     assert code == 2 and "2-D" in err and "Traceback" not in err
     assert not (tmp_path / "d").exists()
+
+
+def test_demo_settle_hands_the_model_the_sph_state(tmp_path, capsys):
+    """dcdc demo --model --settle T: the network starts from the SPH frame at T; its file
+    repeats the SPH frames up to T, so both share frame times; misuse is a one-line error."""
+    from helpers import dcdc_output
+
+    out = tmp_path / "demo"
+    code, stdout, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.4",
+                                   "--model", "dcdc2d", "--settle", "0.1", "--out", out], capsys)
+    assert code == 0
+    assert "learned model from the SPH state at 0.1 s: 15 of 15 steps" in stdout
+    ds = Dataset(out)
+    sph, pred = ds["lock_exchange_2d"], ds["lock_exchange_2d_dcdc"]
+    assert pred.n_frames == sph.n_frames == 21
+    np.testing.assert_allclose(pred.time, sph.time, atol=1e-9)
+    np.testing.assert_allclose(pred.position[:6], sph.position[:6], atol=1e-6)  # frame 5 = start
+    assert np.abs(pred.position[-1] - sph.position[-1]).max() > 0  # the network ran after it
+    for args, msg in ((["--settle", "0.1"], "--settle goes with --model"),
+                      (["--model", "dcdc2d", "--settle", "0.4"], "not before the end"),
+                      (["--model", "dcdc2d", "--settle", "0.03"], "multiple of")):
+        code, _, err = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.4",
+                                    *args, "--out", tmp_path / "bad"], capsys)
+        assert code == 2 and msg in err and "Traceback" not in err, err
+        assert not (tmp_path / "bad").exists()
