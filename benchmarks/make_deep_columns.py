@@ -4,7 +4,8 @@ cocktail's start-up burst"): the situation the random training scenes lack.
     python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0]
 
 Each scene: a closed box tank (footprint 0.5-0.8 m, so 2 000-4 500 particles at r = 2.5 cm),
-a column 0.8-1.5 m deep of 2-4 layers resting on the floor from its lattice start, densities
+a column 0.8-1.5 m deep, every face on the lattice so that it starts with no gaps,
+of 2-4 layers resting on the floor from its lattice start, densities
 drawn log-uniformly from 500-5000 kg/m³ with a ratio of at most 10 (the training range) in a
 random order (so most columns are unstable somewhere), half of them moving sideways at up
 to 0.6 m/s at t = 0. Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA`.
@@ -17,15 +18,26 @@ from pathlib import Path
 import numpy as np
 
 COLORS = ["#3a78d8", "#f2c230", "#f07a1a", "#c0182a"]
+SPACING = 0.05  # 2r at the 3-D default radius 2.5 cm
+
+
+def on_lattice(v: float) -> float:
+    """``v`` rounded to a multiple of the particle spacing."""
+    return round(SPACING * round(float(v) / SPACING), 2)
 
 
 def scene(seed: int) -> str:
     rng = np.random.default_rng([7, seed])
-    wx, wz = (round(float(v), 2) for v in rng.uniform(0.5, 0.8, size=2))
+    # every face on a lattice face plane (multiples of the spacing 2r = 5 cm): box blocks
+    # then tile the tank with no empty row between layers or beside the walls (a face
+    # between planes leaves one, and the column starts by falling into it)
+    wx, wz = (on_lattice(v) for v in rng.uniform(0.5, 0.8, size=2))
     depth = float(rng.uniform(0.8, 1.5))
     n = int(rng.integers(2, 5))
-    thick = 0.15 + (depth - 0.15 * n) * rng.dirichlet(np.ones(n))  # every layer >= 0.15 m
-    tops = np.round(np.cumsum(thick), 2)
+    total = int(round(depth / SPACING))
+    rows = 3 + rng.multinomial(total - 3 * n, rng.dirichlet(np.ones(n)))
+    tops = np.round(SPACING * np.cumsum(rows), 2)  # every layer >= 3 rows (0.15 m)
+    depth = float(tops[-1])
     bottoms = np.append(0.0, tops[:-1])
     while True:
         rho = np.round(np.exp(rng.uniform(np.log(500), np.log(5000), size=n)), -1)

@@ -29,3 +29,13 @@ def test_deep_column_scenes_are_deep_layered_and_in_the_training_range(tmp_path)
         assert 2 <= len(rho) <= 4 and rho.max() / rho.min() <= 10
         assert all((sy.phase == k).sum() > 0 for k in range(len(rho)))  # no empty layer
         assert y.min() < 0.05  # resting on the floor from its lattice start
+        # no empty row: the layers and the tank's walls tile the lattice (a gap makes the
+        # column start by falling into it, a transient the SPH data would teach)
+        levels = np.unique(y.round(6))
+        np.testing.assert_allclose(np.diff(levels), 2 * sy.radius, atol=1e-6)
+        lo, hi = sy.x.min(0), sy.x.max(0)
+        box = np.array([float(v) for v in f.read_text().split("max = [")[1].split("]")[0].split(",")])
+        for a in (0, 2):
+            assert lo[a] == np.float32(sy.radius) or abs(lo[a] - sy.radius) < 1e-6
+            assert abs(box[a] - hi[a] - sy.radius) < 1e-6
+        assert len(y) == len(levels) * round(box[0] / (2 * sy.radius)) * round(box[2] / (2 * sy.radius))
