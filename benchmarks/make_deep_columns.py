@@ -1,14 +1,17 @@
 """Write 3-D scene files of deep layered columns resting in a tank (docs/models.md, "The
 cocktail's start-up burst"): the situation the random training scenes lack.
 
-    python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0]
+    python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0] [KIND=tank|glass]
 
-Each scene: a closed box tank (footprint 0.5-0.8 m, so 2 000-4 500 particles at r = 2.5 cm),
+tank: a closed box tank (footprint 0.5-0.8 m, so 2 000-4 500 particles at r = 2.5 cm),
 a column 0.8-1.5 m deep, every face on the lattice so that it starts with no gaps,
 of 2-4 layers resting on the floor from its lattice start, densities
 drawn log-uniformly from 500-5000 kg/m³ with a ratio of at most 10 (the training range) in a
 random order (so most columns are unstable somewhere), half of them moving sideways at up
-to 0.6 m/s at t = 0. Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA`.
+to 0.6 m/s at t = 0. glass: the same kind of column (2-4 layers, 0.1 m or more each) in a
+stemmed glass of random size (rim radius 0.45-0.7 m) and slenderness, filled to 60-90 % of
+its height: a curved bottom that a lattice start meets with voids, as the cocktail does
+(the cocktail's own glass is not among them). Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA`.
 """
 from __future__ import annotations
 
@@ -26,7 +29,25 @@ def on_lattice(v: float) -> float:
     return round(SPACING * round(float(v) / SPACING), 2)
 
 
-def scene(seed: int) -> str:
+def densities(rng, n: int) -> np.ndarray:
+    """``n`` distinct densities, log-uniform in 500-5000 kg/m³, ratio at most 10."""
+    while True:
+        rho = np.round(np.exp(rng.uniform(np.log(500), np.log(5000), size=n)), -1)
+        if rho.max() / rho.min() <= 10 and len(set(rho)) == n:
+            return rho
+
+
+def header(name: str, what: str, seed: int, lo, hi, rho) -> list[str]:
+    lines = [f'name = "{name}"', f'description = "{what}"', "dim = 3", "duration = 2.6",
+             f"seed = {seed}", "", "[domain]", f"min = {list(lo)}", f"max = {list(hi)}", ""]
+    for k, r in enumerate(rho):
+        lines += [f"[phases.p{k}]", f"density = {r:g}", "viscosity = 1e-6",
+                  f'color = "{COLORS[k]}"', ""]
+    return lines
+
+
+def tank(seed: int) -> str:
+    """A column in a closed box tank."""
     rng = np.random.default_rng([7, seed])
     # every face on a lattice face plane (multiples of the spacing 2r = 5 cm): box blocks
     # then tile the tank with no empty row between layers or beside the walls (a face
@@ -39,19 +60,11 @@ def scene(seed: int) -> str:
     tops = np.round(SPACING * np.cumsum(rows), 2)  # every layer >= 3 rows (0.15 m)
     depth = float(tops[-1])
     bottoms = np.append(0.0, tops[:-1])
-    while True:
-        rho = np.round(np.exp(rng.uniform(np.log(500), np.log(5000), size=n)), -1)
-        if rho.max() / rho.min() <= 10 and len(set(rho)) == n:
-            break
+    rho = densities(rng, n)
     vx = round(float(rng.uniform(-0.6, 0.6)), 2) if rng.random() < 0.5 else 0.0
     height = round(depth + 0.4, 2)
-    lines = [f'name = "deep_column_{seed}"',
-             f'description = "{n} layers, {depth:.2f} m deep, resting in a box tank"',
-             "dim = 3", "duration = 2.6", f"seed = {seed}", "",
-             "[domain]", f"min = [0.0, 0.0, 0.0]", f"max = [{wx}, {height}, {wz}]", ""]
-    for k in range(n):
-        lines += [f"[phases.p{k}]", f"density = {rho[k]:g}", "viscosity = 1e-6",
-                  f'color = "{COLORS[k]}"', ""]
+    lines = header(f"deep_column_{seed}", f"{n} layers, {depth:.2f} m deep, resting in a box tank",
+                   seed, [0.0, 0.0, 0.0], [wx, height, wz], rho)
     lines += ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
               f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
     for k in range(n):
@@ -61,14 +74,58 @@ def scene(seed: int) -> str:
     return "\n".join(lines)
 
 
+# the cocktail glass's bowl profile per unit rim radius: (radius, height above the bottom)
+BOWL = np.array([[0.0, 0.0], [0.43, 0.048], [0.71, 0.20], [0.88, 0.45], [0.98, 0.86],
+                 [1.0, 1.49]])
+
+
+def glass(seed: int) -> str:
+    """A column in a stemmed glass of random size and slenderness: a curved bottom that a
+    lattice start meets with voids, as in the cocktail (not the cocktail's glass itself)."""
+    rng = np.random.default_rng([8, seed])
+    rim = float(rng.uniform(0.45, 0.7))
+    tall = float(rng.uniform(1.2, 1.7))
+    stem = round(float(rng.uniform(0.1, 0.3)), 2)
+    bowl = np.round(BOWL * np.array([rim, rim * tall]), 3)
+    depth = float(rng.uniform(0.6, 0.9)) * float(bowl[-1, 1])
+    n = int(rng.integers(2, 5))
+    thick = 0.1 + (depth - 0.1 * n) * rng.dirichlet(np.ones(n))  # every layer >= 0.1 m
+    tops = stem + np.cumsum(thick)
+    bottoms = np.append(stem - 0.05, tops[:-1])  # below the bowl bottom: fill it
+    rho = densities(rng, n)
+    vx = round(float(rng.uniform(-0.6, 0.6)), 2) if rng.random() < 0.5 else 0.0
+    half = round(rim + 0.2, 2)
+    height = round(stem + float(bowl[-1, 1]) + 0.3, 2)
+    lo, hi = [-half, 0.0, -half], [half, height, half]
+    lines = header(f"deep_glass_{seed}", f"{n} layers, {depth:.2f} m deep, in a glass",
+                   seed, lo, hi, rho)
+    lines += ["[walls.case]", 'shape = "box"', f"min = {lo}", f"max = {hi}", "hollow = true",
+              "open_top = false", "", "[walls.glass]", 'shape = "glass"',
+              "center = [0.0, 0.0, 0.0]", f"foot = {round(0.5 * rim, 2)}", f"stem = {stem}",
+              f"bowl = {bowl.tolist()}", ""]
+    for k in range(n):
+        lines += ["[[fluid]]", f'phase = "p{k}"', 'shape = "fill"', 'inside = "glass"',
+                  f"min = [{-half}, {bottoms[k]:.3f}, {-half}]",
+                  f"max = [{half}, {tops[k]:.3f}, {half}]",
+                  f"velocity = [{vx}, 0.0, 0.0]", ""]
+    return "\n".join(lines)
+
+
+KINDS = {"tank": tank, "glass": glass}
+
+
 def main(argv: list[str]) -> None:
     out = Path(argv[0])
     n = int(argv[1]) if len(argv) > 1 else 12
     seed0 = int(argv[2]) if len(argv) > 2 else 0
+    kind = argv[3] if len(argv) > 3 else "tank"
+    if kind not in KINDS:
+        sys.exit(f"error: KIND must be one of {', '.join(KINDS)} (got {kind!r})")
     out.mkdir(parents=True, exist_ok=True)
     for s in range(seed0, seed0 + n):
-        (out / f"deep_column_{s}.toml").write_text(scene(s))
-    print(f"wrote {n} scenes to {out}")
+        text = KINDS[kind](s)
+        (out / f"{text.split(chr(34))[1]}.toml").write_text(text)
+    print(f"wrote {n} {kind} scenes to {out}")
 
 
 if __name__ == "__main__":

@@ -39,3 +39,27 @@ def test_deep_column_scenes_are_deep_layered_and_in_the_training_range(tmp_path)
             assert lo[a] == np.float32(sy.radius) or abs(lo[a] - sy.radius) < 1e-6
             assert abs(box[a] - hi[a] - sy.radius) < 1e-6
         assert len(y) == len(levels) * round(box[0] / (2 * sy.radius)) * round(box[2] / (2 * sy.radius))
+
+
+def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
+    _module().main([str(tmp_path), "2", "0", "glass"])
+    files = sorted(tmp_path.glob("deep_glass_*.toml"))
+    assert len(files) == 2
+    for f in files:
+        sy = get_scene(str(f)).realize(dim=3)
+        y = sy.x[:, 1]
+        assert 0.5 <= y.max() - y.min() <= 1.3
+        rho = np.array([p.density for p in sy.phases])
+        assert 2 <= len(rho) <= 4 and rho.max() / rho.min() <= 10
+        assert all((sy.phase == k).sum() > 0 for k in range(len(rho)))
+        assert len(np.unique(sy.x.round(6), axis=0)) == len(sy.x)  # stacked fills: no doubles
+        r_xz = np.linalg.norm(sy.x[:, [0, 2]], axis=1)
+        assert r_xz.max() < 0.7  # inside the glass's rim radius
+
+
+def test_unknown_kind_is_refused(tmp_path):
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, str(SCRIPT), str(tmp_path), "1", "0", "cup"],
+                       capture_output=True, text=True)
+    assert r.returncode == 1 and r.stderr.strip().startswith("error: KIND must be one of")
