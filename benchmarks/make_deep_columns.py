@@ -8,7 +8,7 @@ a column 0.8-1.5 m deep, every face on the lattice so that it starts with no gap
 of 2-4 layers resting on the floor from its lattice start, densities
 drawn log-uniformly from 500-5000 kg/m³ with a ratio of at most 10 (the training range) in a
 random order (so most columns are unstable somewhere), half of them moving sideways at up
-to 0.6 m/s at t = 0. glass: the same kind of column (2-4 layers, 0.1 m or more each) in a
+to 0.6 m/s at t = 0. glass: the same kind of column (2-4 layers, 0.1 m or more each, the lowest 0.2 m) in a
 stemmed glass of random size (rim radius 0.45-0.7 m) and slenderness, filled to 60-90 % of
 its height: a curved bottom that a lattice start meets with voids, as the cocktail does
 (the cocktail's own glass is not among them). Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA`.
@@ -89,7 +89,8 @@ def glass(seed: int) -> str:
     bowl = np.round(BOWL * np.array([rim, rim * tall]), 3)
     depth = float(rng.uniform(0.6, 0.9)) * float(bowl[-1, 1])
     n = int(rng.integers(2, 5))
-    thick = 0.1 + (depth - 0.1 * n) * rng.dirichlet(np.ones(n))  # every layer >= 0.1 m
+    # every layer >= 0.1 m, the lowest >= 0.2 m (the narrow rounded bottom holds few points)
+    thick = 0.1 + (depth - 0.1 * n - 0.1) * rng.dirichlet(np.ones(n)) + np.eye(n)[0] * 0.1
     tops = stem + np.cumsum(thick)
     bottoms = np.append(stem - 0.05, tops[:-1])  # below the bowl bottom: fill it
     rho = densities(rng, n)

@@ -42,9 +42,9 @@ def test_deep_column_scenes_are_deep_layered_and_in_the_training_range(tmp_path)
 
 
 def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
-    _module().main([str(tmp_path), "2", "0", "glass"])
+    _module().main([str(tmp_path), "12", "0", "glass"])  # seed 11 once left a layer empty
     files = sorted(tmp_path.glob("deep_glass_*.toml"))
-    assert len(files) == 2
+    assert len(files) == 12
     for f in files:
         sy = get_scene(str(f)).realize(dim=3)
         y = sy.x[:, 1]

@@ -1,0 +1,95 @@
+"""The 3-D start-up burst, measured (docs/models.md, "The cocktail's start-up burst").
+
+    python benchmarks/startup_burst.py [--steps 60] [--json F] MODEL [MODEL ...]
+
+Each model runs the built-in 3-D cocktail and Rayleigh–Taylor tank from their lattice
+starts (as `dcdc simulate --scene S`, wall contact on, default guard) for ``--steps`` steps
+of 0.02 s. Reported per model and scene: the peak over steps of the 99th-percentile particle
+speed [m/s] and its step, the steps run (the guard's verdict when it stopped early) and, for
+the cocktail, the particles that left the glass (below its stem top, y < 0.3 m, i.e. on the
+table) at the last step. The SPH row of the cocktail is its reference trajectory
+(datasets/3d/test_scenes/cocktail_3d.h5) over the same span, where present.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+SCENES = ["cocktail", "rayleigh_taylor"]
+STEM_TOP = 0.3  # the cocktail glass's bowl bottom: fluid below it has left the glass
+SPH_COCKTAIL = Path("datasets/3d/test_scenes/cocktail_3d.h5")
+
+
+def p99(v: np.ndarray) -> float:
+    return float(np.percentile(np.linalg.norm(v, axis=-1), 99))
+
+
+def summary(name: str, speeds: list[float], y_end, steps: int, stopped) -> dict:
+    k = int(np.argmax(speeds))
+    row = {"model": name, "peak_p99_speed": float(speeds[k]), "peak_step": k,
+           "steps": steps, "stopped": "" if stopped is None else str(stopped)}
+    if y_end is not None:
+        row["left_glass"] = int((y_end < STEM_TOP).sum())
+    return row
+
+
+def run_model(path: str, scene: str, steps: int) -> dict:
+    from dcdc.evaluate.cli import _start_from_scene
+    from dcdc.evaluate.rollout import Guard, NeuralSimulator, RolloutStopped
+    from dcdc.model.checkpoint import load_checkpoint
+
+    model, _ = load_checkpoint(path)
+    system, _, _ = _start_from_scene(scene, 3, 1.0, model, steps, None)
+    sim = NeuralSimulator(model, system, guard=Guard())
+    speeds, stopped, done = [p99(system.v)], None, 0
+    for _ in range(steps):
+        try:
+            sim.step()
+        except RolloutStopped as e:
+            stopped = e
+            break
+        done += 1
+        speeds.append(p99(sim.system.v))
+    y_end = sim.system.x[:, 1] if scene == "cocktail" else None
+    return summary(path, speeds, y_end, done, stopped)
+
+
+def sph_cocktail(steps: int) -> dict | None:
+    if not SPH_COCKTAIL.exists():
+        return None
+    from dcdc.data.dataset import Dataset
+    t = Dataset(SPH_COCKTAIL)["cocktail_3d"]
+    n = min(steps, t.n_frames - 1)
+    speeds = [p99(t.velocity[f]) for f in range(n + 1)]
+    return summary("SPH (reference)", speeds, t.position[n][:, 1], n, None)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("models", nargs="+")
+    ap.add_argument("--steps", type=int, default=60)
+    ap.add_argument("--json", default=None)
+    a = ap.parse_args()
+    rows = {s: [] for s in SCENES}
+    ref = sph_cocktail(a.steps)
+    if ref is not None:
+        rows["cocktail"].append(ref)
+    for m in a.models:
+        for s in SCENES:
+            rows[s].append(run_model(m, s, a.steps))
+    for s in SCENES:
+        print(f"\n{s} (3-D, lattice start, {a.steps} steps)")
+        print(f"{'model':<44}{'peak p99 m/s':>13}{'at step':>8}{'steps':>7}{'left glass':>11}")
+        for r in rows[s]:
+            print(f"{r['model']:<44}{r['peak_p99_speed']:>13.2f}{r['peak_step']:>8}"
+                  f"{r['steps']:>7}{r.get('left_glass', ''):>11}")
+    if a.json:
+        Path(a.json).write_text(json.dumps({"steps": a.steps, "scenes": rows}, indent=1))
+        print(f"wrote {a.json}")
+
+
+if __name__ == "__main__":
+    main()
