@@ -7,8 +7,7 @@ starts (as `dcdc simulate --scene S`, wall contact on, default guard) for ``--st
 of 0.02 s. Reported per model and scene: the peak over steps of the 99th-percentile particle
 speed [m/s] and its step, the steps run (the guard's verdict when it stopped early) and, for
 the cocktail, the particles that left the glass (below its stem top, y < 0.3 m, i.e. on the
-table) at the last step. The SPH row of the cocktail is its reference trajectory
-(datasets/3d/test_scenes/cocktail_3d.h5) over the same span, where present.
+table) at the last step. The SPH rows: the scene's own solver over the same span.
 """
 from __future__ import annotations
 
@@ -20,7 +19,6 @@ import numpy as np
 
 SCENES = ["cocktail", "rayleigh_taylor"]
 STEM_TOP = 0.3  # the cocktail glass's bowl bottom: fluid below it has left the glass
-SPH_COCKTAIL = Path("datasets/3d/test_scenes/cocktail_3d.h5")
 
 
 def p99(v: np.ndarray) -> float:
@@ -57,14 +55,20 @@ def run_model(path: str, scene: str, steps: int) -> dict:
     return summary(path, speeds, y_end, done, stopped)
 
 
-def sph_cocktail(steps: int) -> dict | None:
-    if not SPH_COCKTAIL.exists():
-        return None
-    from dcdc.data.dataset import Dataset
-    t = Dataset(SPH_COCKTAIL)["cocktail_3d"]
-    n = min(steps, t.n_frames - 1)
-    speeds = [p99(t.velocity[f]) for f in range(n + 1)]
-    return summary("SPH (reference)", speeds, t.position[n][:, 1], n, None)
+def sph_reference(scene: str, steps: int) -> dict:
+    """The scene's own SPH solver over the same span, frames of 0.02 s."""
+    from dcdc.scene import get_scene
+    from dcdc.sph import Simulator
+
+    sc = get_scene(scene)
+    system = sc.realize(dim=3)
+    sim = Simulator(system, sc.check_solver())
+    speeds = [p99(system.v)]
+    for _ in range(steps):
+        sim.advance(0.02)
+        speeds.append(p99(system.v))
+    return summary("SPH (reference)", speeds, system.x[:, 1] if scene == "cocktail" else None,
+                   steps, None)
 
 
 def main() -> None:
@@ -73,10 +77,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=60)
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
-    rows = {s: [] for s in SCENES}
-    ref = sph_cocktail(a.steps)
-    if ref is not None:
-        rows["cocktail"].append(ref)
+    rows = {s: [sph_reference(s, a.steps)] for s in SCENES}
     for m in a.models:
         for s in SCENES:
             rows[s].append(run_model(m, s, a.steps))
