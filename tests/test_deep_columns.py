@@ -48,7 +48,7 @@ def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
     for f in files:
         sy = get_scene(str(f)).realize(dim=3)
         y = sy.x[:, 1]
-        assert 0.5 <= y.max() - y.min() <= 1.3
+        assert 0.4 <= y.max() - y.min() <= 1.3  # 60-90 % of a 0.8-1.8 m glass
         rho = np.array([p.density for p in sy.phases])
         assert 2 <= len(rho) <= 4 and rho.max() / rho.min() <= 10
         assert all((sy.phase == k).sum() > 0 for k in range(len(rho)))
