@@ -16,6 +16,7 @@ its height: a curved bottom that a lattice start meets with voids, as the cockta
 from __future__ import annotations
 
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -125,7 +126,7 @@ def main(argv: list[str]) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for s in range(seed0, seed0 + n):
         text = KINDS[kind](s)
-        (out / f"{text.split(chr(34))[1]}.toml").write_text(text)
+        (out / f"{tomllib.loads(text)['name']}.toml").write_text(text)
     print(f"wrote {n} {kind} scenes to {out}")
 
 

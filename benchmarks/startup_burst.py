@@ -36,23 +36,14 @@ def summary(name: str, speeds: list[float], y_end, steps: int, stopped) -> dict:
 
 def run_model(path: str, scene: str, steps: int) -> dict:
     from dcdc.evaluate.cli import _start_from_scene
-    from dcdc.evaluate.rollout import Guard, NeuralSimulator, RolloutStopped
+    from dcdc.evaluate.rollout import Guard, NeuralSimulator, run
     from dcdc.model.checkpoint import load_checkpoint
 
     model, _ = load_checkpoint(path)
     system, _, _ = _start_from_scene(scene, 3, 1.0, model, steps, None)
-    sim = NeuralSimulator(model, system, guard=Guard())
-    speeds, stopped, done = [p99(system.v)], None, 0
-    for _ in range(steps):
-        try:
-            sim.step()
-        except RolloutStopped as e:
-            stopped = e
-            break
-        done += 1
-        speeds.append(p99(sim.system.v))
-    y_end = sim.system.x[:, 1] if scene == "cocktail" else None
-    return summary(path, speeds, y_end, done, stopped)
+    ro = run(NeuralSimulator(model, system, guard=Guard()), steps)
+    y_end = ro.position[-1][:, 1] if scene == "cocktail" else None
+    return summary(path, [p99(v) for v in ro.velocity], y_end, ro.steps, ro.stopped)
 
 
 def sph_reference(scene: str, steps: int) -> dict:

@@ -605,23 +605,16 @@ def _mesh_fill(field: str, f: dict, dim: int, spacing: float, anchor, base_dir, 
     return pts[inside(pts)] if len(pts) else pts
 
 
-def _drop_shared_face(pts: np.ndarray, hit: np.ndarray, f: dict, spacing: float) -> np.ndarray:
-    """``pts`` of a ``fill`` block less the particles ``hit`` (touching an earlier block) when
-    all of them lie on one face plane of the block's box: two stacked fills that share a face
-    both take the lattice plane lying on it (at resolutions where one does), and the plane
-    belongs to the block listed first. Any other contact is a real overlap and is kept, so
-    the caller reports it."""
-    lo = np.array(f["min"]) if f["min"] is not None else None
-    hi = np.array(f["max"]) if f["max"] is not None else None
+def _on_one_face(points: np.ndarray, f: dict, spacing: float) -> bool:
+    """Whether ``points`` all lie on one face plane of the ``fill`` block ``f``'s box: two
+    stacked fills that share a face both take the lattice plane lying on it (at resolutions
+    where one does); any other contact between blocks is a real overlap."""
     tol = 1e-6 * spacing
-    for bound in (lo, hi):
-        if bound is None:
-            continue
-        for a in range(pts.shape[1]):
-            on = np.abs(pts[:, a] - bound[a]) < tol
-            if on.any() and not (hit & ~on).any():
-                return pts[~hit]
-    return pts
+    for bound in (f["min"], f["max"]):
+        if bound is not None and any(np.all(np.abs(points[:, a] - bound[a]) < tol)
+                                     for a in range(points.shape[1])):
+            return True
+    return False
 
 
 def _fluid_points(f: dict, dim: int, spacing: float, anchor, dom_lo, dom_hi, solids, union,
@@ -976,12 +969,12 @@ class Scene:
                                     f"domain{at}")
                 for k, (lab2, prev) in enumerate(blocks):
                     nb = radius_search(pts, 0.75 * spacing, prev)
-                    if nb.n_edges and f["shape"] == "fill":
-                        pts = _drop_shared_face(pts, nb.counts > 0, f, spacing)
-                        nb = radius_search(pts, 0.75 * spacing, prev)
-                    if nb.n_edges:
+                    hit = nb.counts > 0
+                    if nb.n_edges and f["shape"] == "fill" and _on_one_face(pts[hit], f, spacing):
+                        pts = pts[~hit]  # the shared face's plane belongs to the block listed first
+                    elif nb.n_edges:
                         raise DcdcError(f"{src}: {label} overlaps {lab2} "
-                                        f"({int((nb.counts > 0).sum())} particles){at}")
+                                        f"({int(hit.sum())} particles){at}")
             blocks.append((label, pts))
             xs.append(pts)
             vs.append(np.tile(np.asarray(f["velocity"], dtype=np.float64), (len(pts), 1)))
