@@ -1,7 +1,7 @@
 """Write 3-D scene files of deep layered columns resting in a tank (docs/models.md, "The
 cocktail's start-up burst"): the situation the random training scenes lack.
 
-    python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0] [KIND=tank|glass]
+    python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0] [KIND=tank|glass|neck]
 
 tank: a closed box tank (footprint 0.5-0.8 m, so 2 000-4 500 particles at r = 2.5 cm),
 a column 0.8-1.5 m deep, every face on the lattice so that it starts with no gaps,
@@ -11,7 +11,12 @@ random order (so most columns are unstable somewhere), half of them moving sidew
 to 0.6 m/s at t = 0. glass: the same kind of column (2-4 layers, 0.1 m or more each, the lowest 0.2 m) in a
 stemmed glass of random size (rim radius 0.45-0.7 m) and slenderness, filled to 60-90 % of
 its height: a curved bottom that a lattice start meets with voids, as the cocktail does
-(the cocktail's own glass is not among them). Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA`.
+(the cocktail's own glass is not among them). neck: a closed box tank split by a horizontal
+plate with one slot (0.1-0.3 m wide, anywhere along it), the chamber below full of a light
+liquid and heavy liquid resting on the plate above (ratio 1.5-10): the exchange flow through
+an aperture that the random scenes lack (the hourglass's curved chambers and its neck are not
+among them). Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA` (a 3-D scene
+file also yields its 2-D section: `--dim 2`).
 """
 from __future__ import annotations
 
@@ -38,8 +43,8 @@ def densities(rng, n: int) -> np.ndarray:
             return rho
 
 
-def header(name: str, what: str, seed: int, lo, hi, rho) -> list[str]:
-    lines = [f'name = "{name}"', f'description = "{what}"', "dim = 3", "duration = 2.6",
+def header(name: str, what: str, seed: int, lo, hi, rho, duration: float = 2.6) -> list[str]:
+    lines = [f'name = "{name}"', f'description = "{what}"', "dim = 3", f"duration = {duration}",
              f"seed = {seed}", "", "[domain]", f"min = {list(lo)}", f"max = {list(hi)}", ""]
     for k, r in enumerate(rho):
         lines += [f"[phases.p{k}]", f"density = {r:g}", "viscosity = 1e-6",
@@ -113,7 +118,41 @@ def glass(seed: int) -> str:
     return "\n".join(lines)
 
 
-KINDS = {"tank": tank, "glass": glass}
+def neck(seed: int) -> str:
+    """Heavy liquid above light in a tank split by a plate with one slot (all on the lattice)."""
+    rng = np.random.default_rng([9, seed])
+    wx, wz = on_lattice(rng.uniform(0.6, 1.0)), on_lattice(rng.uniform(0.4, 0.6))
+    below = on_lattice(rng.uniform(0.4, 0.8))           # the light chamber's height
+    plate = on_lattice(rng.uniform(0.1, 0.2))           # the plate's thickness
+    slot = on_lattice(rng.uniform(0.1, 0.3))            # the slot's width
+    x0 = on_lattice(rng.uniform(0.1, wx - slot - 0.1))  # its left edge
+    pt = round(below + plate, 2)
+    top = on_lattice(pt + rng.uniform(0.3, 0.6))        # the heavy layer's surface
+    height = round(top + 0.3, 2)
+    while True:
+        ratio = float(np.exp(rng.uniform(np.log(1.5), np.log(10))))
+        light = float(np.round(np.exp(rng.uniform(np.log(500), np.log(5000 / ratio))), -1))
+        rho = np.array([light, np.round(light * ratio, -1)])
+        if rho[1] <= 5000 and rho[1] > rho[0]:
+            break
+    lines = header(f"deep_neck_{seed}", f"heavy over light through a {slot:.2f} m slot, "
+                   f"ratio {rho[1] / rho[0]:.1f}", seed, [0.0, 0.0, 0.0], [wx, height, wz],
+                   rho, duration=4.0)
+    lines += ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
+              f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
+    for name, (a, b) in {"left": (0.0, x0), "right": (round(x0 + slot, 2), wx)}.items():
+        if b > a:
+            lines += [f"[walls.plate_{name}]", 'shape = "box"', f"min = [{a}, {below}, 0.0]",
+                      f"max = [{b}, {pt}, {wz}]", ""]
+    blocks = [("p0", [0.0, 0.0], [wx, below]), ("p0", [x0, below], [round(x0 + slot, 2), pt]),
+              ("p1", [0.0, pt], [wx, top])]
+    for phase, lo, hi in blocks:
+        lines += ["[[fluid]]", f'phase = "{phase}"', 'shape = "box"',
+                  f"min = [{lo[0]}, {lo[1]}, 0.0]", f"max = [{hi[0]}, {hi[1]}, {wz}]", ""]
+    return "\n".join(lines)
+
+
+KINDS = {"tank": tank, "glass": glass, "neck": neck}
 
 
 def main(argv: list[str]) -> None:

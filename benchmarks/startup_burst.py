@@ -35,12 +35,12 @@ def summary(name: str, speeds: list[float], y_end, steps: int, stopped) -> dict:
 
 
 def run_model(path: str, scene: str, steps: int) -> dict:
-    from dcdc.evaluate.cli import _start_from_scene
+    from dcdc.evaluate.start import start_from_scene
     from dcdc.evaluate.rollout import Guard, NeuralSimulator, run
     from dcdc.model.checkpoint import load_checkpoint
 
     model, _ = load_checkpoint(path)
-    system, _, _ = _start_from_scene(scene, 3, 1.0, model, steps, None)
+    system, _, _ = start_from_scene(scene, 3, 1.0, model, steps, None)
     ro = run(NeuralSimulator(model, system, guard=Guard()), steps)
     y_end = ro.position[-1][:, 1] if scene == "cocktail" else None
     return summary(path, [p99(v) for v in ro.velocity], y_end, ro.steps, ro.stopped)

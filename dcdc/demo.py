@@ -99,7 +99,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     n_frames = int(round((duration or sc.duration) / sc.frame_dt))
     start = 0
     if settle is not None:
-        from .evaluate.cli import settle_frames
+        from .evaluate.start import settle_frames
         start = settle_frames(settle, sc.frame_dt)
         if start >= n_frames:
             raise DcdcError(f"--settle {settle:g} s is not before the end of the run "
@@ -168,10 +168,10 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     if start:
         ro = prefixed(ro, traj, start)
     name = f"{traj.name}_{net.name}"
+    settled = {"settled_by_sph_s": float(traj.time[start])} if start else {}
     write_rollout(tmp / f"{name}.h5", name, ro, sim.system,
                   {"scene": sc.name, "frame_dt": sim.dt, "split": "rollout",
-                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path),
-                   "settled_by_sph_s": float(traj.time[start])})
+                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path), **settled})
     pred = Dataset(tmp / f"{name}.h5")[name]
     n = pred.n_frames
     err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)
@@ -183,7 +183,7 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
         iio.imwrite(fh, fig.strip(strip_frames(traj, times)), extension=".png")
     names += [f"{name}.h5", f"{name}_compare.png"]
     stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
-    return (f"learned model{since}: {ro.steps - start} of {n_frames - start} steps ({stop}), "
+    return (f"learned model{since}: {ro.steps} of {n_frames - start} steps ({stop}), "
             f"{ro.ms_per_step:.1f} ms "
             f"per step, mean nearest-particle error {1e3 * float(np.mean(err)):.1f} mm, "
             f"final order heavy-below: {'yes' if order_ok(pred) else 'NO'}")
@@ -199,4 +199,5 @@ def prefixed(ro, traj, start: int):
         velocity=np.concatenate([traj.velocity[:start].astype(ro.velocity.dtype), ro.velocity]),
         time=np.concatenate([traj.time[:start], ro.time]),
         in_walls=np.concatenate([zeros, ro.in_walls]),
-        contacts=None if ro.contacts is None else np.concatenate([zeros, ro.contacts]))
+        contacts=None if ro.contacts is None else np.concatenate([zeros, ro.contacts]),
+        sph_frames=start)

@@ -57,6 +57,30 @@ def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
         assert r_xz.max() < 0.7  # inside the glass's rim radius
 
 
+def test_neck_scenes_put_heavy_liquid_over_light_across_a_slotted_plate(tmp_path):
+    _module().main([str(tmp_path), "8", "0", "neck"])
+    files = sorted(tmp_path.glob("deep_neck_*.toml"))
+    assert len(files) == 8
+    for f in files:
+        for dim in (2, 3):
+            sy = get_scene(str(f)).realize(dim=dim)
+            rho = np.array([p.density for p in sy.phases])
+            assert len(rho) == 2 and 1.5 <= rho[1] / rho[0] <= 10.05 and rho.max() <= 5000
+            y = sy.x[:, 1]
+            light, heavy = y[sy.phase == 0], y[sy.phase == 1]
+            assert heavy.min() > light.max()  # an inversion: all the heavy liquid on top
+            # one slot: the light particles level with the plate fill one contiguous run,
+            # 2-6 spacings (0.1-0.3 m) wide, between the plate's two parts
+            y_top = light.max()
+            in_slot = np.isclose(y, y_top, atol=1e-6) & (sy.phase == 0)
+            xs = np.sort(sy.x[in_slot, 0])
+            assert 2 <= len(np.unique(xs.round(6))) <= 6
+            np.testing.assert_allclose(np.diff(np.unique(xs.round(6))), 2 * sy.radius, atol=1e-6)
+            # the chamber below is full: every lattice row up to the plate is occupied
+            levels = np.unique(y.round(6))
+            np.testing.assert_allclose(np.diff(levels), 2 * sy.radius, atol=1e-6)
+
+
 def test_unknown_kind_is_refused(tmp_path):
     import subprocess
     import sys

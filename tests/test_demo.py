@@ -1,4 +1,5 @@
 """The README's main job: ``dcdc demo`` writes a complete trajectory, pictures and a PLY."""
+import json
 import subprocess
 import sys
 
@@ -95,6 +96,9 @@ def test_demo_settle_hands_the_model_the_sph_state(tmp_path, capsys):
     np.testing.assert_allclose(pred.time, sph.time, atol=1e-9)
     np.testing.assert_allclose(pred.position[:6], sph.position[:6], atol=1e-6)  # frame 5 = start
     assert np.abs(pred.position[-1] - sph.position[-1]).max() > 0  # the network ran after it
+    stats = json.loads(pred.attrs["solver_stats"])  # the network's steps, not the SPH frames
+    assert (stats["steps"], stats["sph_frames"]) == (15, 5)
+    assert len(stats["in_walls"]) == 20 and float(pred.attrs["settled_by_sph_s"]) == 0.1
     for args, msg in ((["--settle", "0.1"], "--settle goes with --model"),
                       (["--model", "dcdc2d", "--settle", "0.4"], "not before the end"),
                       (["--model", "dcdc2d", "--settle", "0.03"], "multiple of")):

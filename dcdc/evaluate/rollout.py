@@ -331,11 +331,12 @@ class Rollout:
     stopped: RolloutStopped | None
     ms_per_step: float
     contacts: np.ndarray | None = None  # particles the wall contact moved in each step [T − 1]
+    sph_frames: int = 0  # leading frames copied from an SPH run, not stepped (demo --settle)
 
     @property
     def steps(self) -> int:
-        """Steps completed without a guard stop."""
-        return len(self.time) - 1
+        """Network steps completed without a guard stop (SPH frames before them excluded)."""
+        return len(self.time) - 1 - self.sph_frames
 
 
 def run(sim: NeuralSimulator, n_steps: int, progress=None, interrupt_check=None) -> Rollout:
@@ -380,7 +381,7 @@ def write_rollout(path, name: str, ro: Rollout, system: ParticleSystem, attrs: d
     from ..data.dataset import write_trajectory
 
     st = ro.stopped
-    stats = {"steps": ro.steps, "ms_per_step": ro.ms_per_step,
+    stats = {"steps": ro.steps, "sph_frames": ro.sph_frames, "ms_per_step": ro.ms_per_step,
              "in_walls": ro.in_walls.tolist(),
              "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
              "contacts": [] if ro.contacts is None else ro.contacts.tolist(),
