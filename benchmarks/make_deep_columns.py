@@ -1,7 +1,7 @@
 """Write 3-D scene files of deep layered columns resting in a tank (docs/models.md, "The
 cocktail's start-up burst"): the situation the random training scenes lack.
 
-    python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0] [KIND=tank|glass|neck]
+    python benchmarks/make_deep_columns.py OUT_DIR [N=12] [SEED=0] [KIND=tank|glass|neck|lock]
 
 tank: a closed box tank (footprint 0.5-0.8 m, so 2 000-4 500 particles at r = 2.5 cm),
 a column 0.8-1.5 m deep, every face on the lattice so that it starts with no gaps,
@@ -15,7 +15,9 @@ its height: a curved bottom that a lattice start meets with voids, as the cockta
 plate with one slot (0.1-0.3 m wide, anywhere along it), the chamber below full of a light
 liquid and heavy liquid resting on the plate above (ratio 1.5-10): the exchange flow through
 an aperture that the random scenes lack (the hourglass's curved chambers and its neck are not
-among them). Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA` (a 3-D scene
+among them). lock: two liquids side by side over the full depth of a closed box tank
+(1-2 m long, gate at 30-70 % of it, ratio 1.1-10, heavy on either side): the gravity currents
+of a lock exchange (none as long as the built-in one, >= 1.7 m, at its ratio, 1.3-1.7). Then `dcdc generate --dim 3 OUT_DIR/*.toml --split train -o DATA` (a 3-D scene
 file also yields its 2-D section: `--dim 2`).
 """
 from __future__ import annotations
@@ -152,7 +154,32 @@ def neck(seed: int) -> str:
     return "\n".join(lines)
 
 
-KINDS = {"tank": tank, "glass": glass, "neck": neck}
+def lock(seed: int) -> str:
+    """Two liquids side by side over the full depth of a closed tank (a lock exchange)."""
+    rng = np.random.default_rng([10, seed])
+    wx, wz = on_lattice(rng.uniform(1.0, 2.0)), on_lattice(rng.uniform(0.3, 0.5))
+    depth = on_lattice(rng.uniform(0.3, 0.7))
+    height = round(depth + on_lattice(rng.uniform(0.05, 0.2)), 2)  # a gap under the lid
+    gate = on_lattice(rng.uniform(0.3, 0.7) * wx)
+    while True:  # not the built-in lock exchange's configuration (2 m long, ratio 1.5)
+        ratio = float(np.exp(rng.uniform(np.log(1.1), np.log(10))))
+        if not (wx >= 1.7 and 1.3 <= ratio <= 1.7):
+            break
+    light = float(np.round(np.exp(rng.uniform(np.log(500), np.log(5000 / ratio))), -1))
+    rho = np.array([light, max(light + 10, float(np.round(light * ratio, -1)))])
+    left, right = ("p1", "p0") if rng.random() < 0.5 else ("p0", "p1")
+    lines = header(f"deep_lock_{seed}", f"lock exchange, ratio {rho[1] / rho[0]:.2f}, "
+                   f"{wx:.2f} m long, {depth:.2f} m deep", seed, [0.0, 0.0, 0.0],
+                   [wx, height, wz], rho, duration=3.0)
+    lines += ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
+              f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
+    for phase, a, b in ((left, 0.0, gate), (right, gate, wx)):
+        lines += ["[[fluid]]", f'phase = "{phase}"', 'shape = "box"', f"min = [{a}, 0.0, 0.0]",
+                  f"max = [{b}, {depth}, {wz}]", ""]
+    return "\n".join(lines)
+
+
+KINDS = {"tank": tank, "glass": glass, "neck": neck, "lock": lock}
 
 
 def main(argv: list[str]) -> None:

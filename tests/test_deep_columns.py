@@ -81,6 +81,24 @@ def test_neck_scenes_put_heavy_liquid_over_light_across_a_slotted_plate(tmp_path
             np.testing.assert_allclose(np.diff(levels), 2 * sy.radius, atol=1e-6)
 
 
+def test_lock_scenes_hold_two_full_depth_columns_unlike_the_builtin(tmp_path):
+    _module().main([str(tmp_path), "30", "0", "lock"])
+    files = sorted(tmp_path.glob("deep_lock_*.toml"))
+    assert len(files) == 30
+    for f in files:
+        sy = get_scene(str(f)).realize(dim=2)
+        rho = np.array([p.density for p in sy.phases])
+        ratio = rho.max() / rho.min()
+        assert len(rho) == 2 and 1.05 <= ratio <= 10.05
+        length = sy.x[:, 0].max() + sy.radius  # the tank starts at x = 0
+        assert not (length >= 1.7 - 1e-6 and 1.3 <= ratio <= 1.7)  # not the built-in's
+        # side by side over the same depth: one phase left of a vertical gate, one right
+        x0, x1 = sy.x[sy.phase == 0, 0], sy.x[sy.phase == 1, 0]
+        assert x0.max() < x1.min() or x1.max() < x0.min()
+        y0, y1 = sy.x[sy.phase == 0, 1], sy.x[sy.phase == 1, 1]
+        assert abs(y0.max() - y1.max()) < 1e-6 and abs(y0.min() - y1.min()) < 1e-6
+
+
 def test_unknown_kind_is_refused(tmp_path):
     import subprocess
     import sys
