@@ -54,6 +54,18 @@ def header(name: str, what: str, seed: int, lo, hi, rho, duration: float = 2.6) 
     return lines
 
 
+def closed_tank(wx: float, height: float, wz: float) -> list[str]:
+    """The closed box tank [0, wx] x [0, height] x [0, wz] as scene-file lines."""
+    return ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
+            f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
+
+
+def box_fluid(phase: str, lo, hi, wz: float) -> list[str]:
+    """A box fluid block from (x, y) ``lo`` to ``hi`` across the tank's depth [0, wz]."""
+    return ["[[fluid]]", f'phase = "{phase}"', 'shape = "box"', f"min = [{lo[0]}, {lo[1]}, 0.0]",
+            f"max = [{hi[0]}, {hi[1]}, {wz}]", ""]
+
+
 def tank(seed: int) -> str:
     """A column in a closed box tank."""
     rng = np.random.default_rng([7, seed])
@@ -73,8 +85,7 @@ def tank(seed: int) -> str:
     height = round(depth + 0.4, 2)
     lines = header(f"deep_column_{seed}", f"{n} layers, {depth:.2f} m deep, resting in a box tank",
                    seed, [0.0, 0.0, 0.0], [wx, height, wz], rho)
-    lines += ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
-              f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
+    lines += closed_tank(wx, height, wz)
     for k in range(n):
         lines += ["[[fluid]]", f'phase = "p{k}"', 'shape = "box"',
                   f"min = [0.0, {bottoms[k]:.2f}, 0.0]", f"max = [{wx}, {tops[k]:.2f}, {wz}]",
@@ -140,8 +151,7 @@ def neck(seed: int) -> str:
     lines = header(f"deep_neck_{seed}", f"heavy over light through a {slot:.2f} m slot, "
                    f"ratio {rho[1] / rho[0]:.1f}", seed, [0.0, 0.0, 0.0], [wx, height, wz],
                    rho, duration=4.0)
-    lines += ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
-              f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
+    lines += closed_tank(wx, height, wz)
     for name, (a, b) in {"left": (0.0, x0), "right": (round(x0 + slot, 2), wx)}.items():
         if b > a:
             lines += [f"[walls.plate_{name}]", 'shape = "box"', f"min = [{a}, {below}, 0.0]",
@@ -149,8 +159,7 @@ def neck(seed: int) -> str:
     blocks = [("p0", [0.0, 0.0], [wx, below]), ("p0", [x0, below], [round(x0 + slot, 2), pt]),
               ("p1", [0.0, pt], [wx, top])]
     for phase, lo, hi in blocks:
-        lines += ["[[fluid]]", f'phase = "{phase}"', 'shape = "box"',
-                  f"min = [{lo[0]}, {lo[1]}, 0.0]", f"max = [{hi[0]}, {hi[1]}, {wz}]", ""]
+        lines += box_fluid(phase, lo, hi, wz)
     return "\n".join(lines)
 
 
@@ -171,11 +180,9 @@ def lock(seed: int) -> str:
     lines = header(f"deep_lock_{seed}", f"lock exchange, ratio {rho[1] / rho[0]:.2f}, "
                    f"{wx:.2f} m long, {depth:.2f} m deep", seed, [0.0, 0.0, 0.0],
                    [wx, height, wz], rho, duration=3.0)
-    lines += ["[walls.tank]", 'shape = "box"', "min = [0.0, 0.0, 0.0]",
-              f"max = [{wx}, {height}, {wz}]", "hollow = true", "open_top = false", ""]
+    lines += closed_tank(wx, height, wz)
     for phase, a, b in ((left, 0.0, gate), (right, gate, wx)):
-        lines += ["[[fluid]]", f'phase = "{phase}"', 'shape = "box"', f"min = [{a}, 0.0, 0.0]",
-                  f"max = [{b}, {depth}, {wz}]", ""]
+        lines += box_fluid(phase, [a, 0.0], [b, depth], wz)
     return "\n".join(lines)
 
 

@@ -48,16 +48,12 @@ def run_model(path: str, scene: str, steps: int) -> dict:
 
 def sph_reference(scene: str, steps: int) -> dict:
     """The scene's own SPH solver over the same span, frames of 0.02 s."""
+    from dcdc.evaluate.start import settle_with_sph
     from dcdc.scene import get_scene
-    from dcdc.sph import Simulator
 
-    sc = get_scene(scene)
-    system = sc.realize(dim=3)
-    sim = Simulator(system, sc.check_solver())
+    system = get_scene(scene).realize(dim=3)
     speeds = [p99(system.v)]
-    for _ in range(steps):
-        sim.advance(0.02)
-        speeds.append(p99(system.v))
+    settle_with_sph(system, scene, steps, 0.02, progress=lambda _: speeds.append(p99(system.v)))
     return summary("SPH (reference)", speeds, system.x[:, 1] if scene == "cocktail" else None,
                    steps, None)
 
