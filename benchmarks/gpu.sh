@@ -4,7 +4,7 @@
 #   bash benchmarks/gpu.sh
 # Writes benchmarks/model_gpu.json (ms per 3-D neural step at 1 k - 100 k particles, the
 # network on the GPU, search + geometry on the CPU) and benchmarks/table1_gpu.json (the
-# paper's Table 1 with the network on the GPU; the SPH solver runs on the CPU cores).
+# paper's Table 1, 2-D and 3-D showcases, with the network on the GPU; the SPH solver runs on the CPU cores).
 # CI never has a GPU and nothing depends on this script.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,5 +21,5 @@ print(torch.cuda.get_device_name(0), torch.version.cuda)
 PY
 dcdc benchmark model --device cuda --particles 1000,10000,50000,100000 --repeat 10 \
     --json benchmarks/model_gpu.json
-dcdc benchmark table1 --device cuda --json benchmarks/table1_gpu.json \
+dcdc benchmark table1 --device cuda --model3d dcdc3d --json benchmarks/table1_gpu.json \
     --note "network on $(python -c 'import torch; print(torch.cuda.get_device_name(0))'), SPH on $(nproc) CPU cores"

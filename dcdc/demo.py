@@ -5,14 +5,19 @@ particles, four phases re-stratifying)
 with the reference SPH solver, writes the trajectory (HDF5, dataset layout of
 docs/datasets.md), a picture strip, an animation and the last frame as PLY for
 ParaView/Blender, and prints whether the phases ended in the right order (heavy below);
-if they did not, it exits non-zero with that reason. With ``--model M`` (a checkpoint or
-a shipped model's name, docs/models.md) the learned simulator runs the same scene from the
-same start: its trajectory, a strip of SPH above the model (same camera, the nearest-
-particle error per panel) and its numbers (steps before the guard stopped it, mean
-nearest-particle error, final order) are added; ``--settle T`` starts the network from the
-SPH state at T s instead of the lattice start (the 3-D networks burst from a deep lattice
-column, docs/models.md). The output folder is checked before the
-simulation and written whole at the end (an existing one only with ``--overwrite``).
+if they did not, it exits non-zero with that reason. Beside SPH the shipped learned model
+of the dimension (``dcdc2d`` / ``dcdc3d``; ``--model M`` for a checkpoint or another shipped
+name, ``--model none`` for SPH alone) runs the same scene from the same start: its
+trajectory, a strip of SPH above the model and an SPH | model animation (same camera, the
+nearest-particle error per panel) and its numbers (steps before the guard stopped it, ms per
+step, per-phase centre-of-mass heights against SPH, layer purity, particles in walls, mean
+nearest-particle error, final order; definitions in docs/evaluation.md) are added, and a
+wrong final order of the model fails the demo too. The default model is skipped with a note
+where the scene's particle radius or frame Δt is not the one it was trained for.
+``--settle T`` starts the network from the SPH state at T s instead of the lattice start
+(the 3-D networks burst from a deep lattice column, docs/models.md). The output folder is
+checked before the simulation and written whole at the end (an existing one only with
+``--overwrite``).
 """
 from __future__ import annotations
 
@@ -25,6 +30,14 @@ from .particles import active_mask
 
 DEMO_SCENE = "cocktail"
 DEMO_RESOLUTION = 2.0  # the 2-D cocktail section at scale 1 holds only ~400 particles
+AUTO_MODEL = "auto"  # the shipped dcdc model of the scene's dimension
+
+
+def default_resolution(scene: str, dim: int) -> float:
+    """The demo's length scale: ×2 for the built-in cocktail in 2-D (its section at scale 1
+    holds ~400 particles, too few to show layers), 1 otherwise (the 3-D cocktail at scale 1
+    already has 8 048 particles; ×2 would be 8× that, hours of SPH on 2 cores)."""
+    return DEMO_RESOLUTION if (scene == DEMO_SCENE and dim == 2) else 1.0
 
 
 def _active(traj, frame: int):
@@ -55,23 +68,25 @@ def order_ok(traj, frame: int = -1) -> bool:
 @click.option("--dim", type=click.Choice(["2", "3"]), default="2", show_default=True)
 @click.option("--resolution", type=float, default=None,
               help="length scale of the scene at fixed particle size "
-                   f"(default: {DEMO_RESOLUTION:g} for the built-in demo scene, 1 for any other)")
+                   f"(default: {DEMO_RESOLUTION:g} for the built-in demo scene in 2-D, 1 otherwise)")
 @click.option("--duration", type=float, default=None, help="seconds (default: the scene's)")
 @click.option("--out", "out_dir", type=click.Path(), default="demo_out", show_default=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing non-empty --out directory.")
 @click.option("--max-particles", type=float, default=None,
               help="Particle budget (default 1e7 or $DCDC_MAX_PARTICLES).")
-@click.option("--model", "model_path", default=None,
-              help="also run this learned model (checkpoint or shipped name, e.g. dcdc2d) "
-                   "beside SPH")
+@click.option("--model", "model_path", default=AUTO_MODEL, show_default=True,
+              help="learned model run beside SPH: a checkpoint, a shipped name (dcdc2d, "
+                   "cconv3d, ...), 'auto' (the shipped dcdc model of --dim, skipped where the "
+                   "scene's particle radius or frame dt is not its own) or 'none'")
 @click.option("--settle", type=float, default=None,
               help="with --model: hand the network the SPH state at SECONDS (e.g. 0.2) instead "
                    "of the lattice start; its file repeats the SPH frames before that")
 def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles, model_path,
                  settle):
-    """Simulate a built-in multiphase scene with SPH and write its result.
+    """Simulate a built-in multiphase scene with SPH and a shipped learned model, write both.
 
-    Exits with status 2 when the phases do not end in density order (heavy below)."""
+    Exits with status 2 when the phases do not end in density order (heavy below), in the
+    SPH run or in the learned model's."""
     from tqdm import tqdm
 
     from .data import interrupt
@@ -79,19 +94,25 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     from .data.jobs import code_version, run_job, scene_jobs
     from .outputs import atomic_dir, check_dir
     from .export import write_points
+    from .model.checkpoint import check_compatible, load_checkpoint
     from .render import animate, snapshot_strip
     from .scene import parse
 
     out = check_dir(out_dir, overwrite=overwrite)  # before any work: never after simulating
     net = None
+    auto = model_path == AUTO_MODEL
+    if auto:
+        model_path = f"dcdc{dim}d"
+    elif model_path == "none":
+        model_path = None
     if model_path is not None:  # a wrong or mismatched model fails before the SPH run
-        from .model.checkpoint import check_compatible, load_checkpoint
         net, _ = load_checkpoint(model_path)
         check_compatible(net, dim=int(dim), what=f"demo scene {scene} in {dim}-D")
     elif settle is not None:
-        raise DcdcError("--settle goes with --model (it hands the learned model the SPH state)")
+        raise DcdcError("--settle goes with a learned model (it hands the model the SPH "
+                        "state), not with --model none")
     if resolution is None:
-        resolution = DEMO_RESOLUTION if scene == DEMO_SCENE else 1.0
+        resolution = default_resolution(scene, int(dim))
     job = scene_jobs([scene], dim=int(dim), resolution=resolution, duration=duration,
                      max_particles=max_particles)[0]
     job.max_particles = max_particles
@@ -123,10 +144,18 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
                      {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
         rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
         ok = order_ok(traj)
-        neural = None
+        neural, neural_ok = None, True
         if net is not None:
-            check_compatible(net, frame_dt=sc.frame_dt, what=f"scene {sc.name}")
-            neural = _neural_beside(net, model_path, sc, traj, n_frames, tmp, names, start)
+            try:
+                check_compatible(net, radius=traj.radius, frame_dt=sc.frame_dt,
+                                 what=f"scene {sc.name}")
+            except DcdcError as e:
+                if not auto:
+                    raise
+                neural, net = f"no learned model: {e} (--model M runs another)", None
+        if net is not None:
+            neural, neural_ok = _neural_beside(net, model_path, sc, traj, n_frames, tmp, names,
+                                               start)
     click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
     click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
@@ -141,21 +170,28 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         heights = ", ".join(f"{n} {y:.3f} m" for n, _, y in rows1)
         raise DcdcError(f"final phase order check failed: median heights (lightest first) {heights} "
                         "are not in density order, heavy below")
+    if not neural_ok:
+        raise DcdcError(f"final phase order check failed for the learned model {model_path}: "
+                        "its phases do not end in density order, heavy below (SPH's do)")
 
 
 def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
-                   start: int = 0) -> str:
+                   start: int = 0) -> tuple[str, bool]:
     """Run ``net`` on the demo scene from the SPH run's frame ``start`` (0: the lattice
     start; later: the settled state, docs/models.md "The cocktail's start-up burst"); write
-    its trajectory (the SPH frames before ``start`` first, so both files share frame times)
-    and a strip of SPH above the model into ``tmp`` (names appended); returns the report
-    line. The error is averaged over the network's frames only."""
+    its trajectory (the SPH frames before ``start`` first, so both files share frame times),
+    a strip of SPH above the model and an SPH | model animation into ``tmp`` (names
+    appended); returns (the report, whether the model's final order is right). The
+    nearest-particle error is averaged over the network's frames only; the final state is
+    compared with SPH's at the same time by :func:`dcdc.evaluate.scores.compare_states`."""
     import imageio.v3 as iio
     from tqdm import tqdm
 
     from .data import interrupt
     from .data.dataset import Dataset
     from .evaluate.rollout import NeuralSimulator, run, write_rollout
+    from .evaluate.scores import compare_states
+    from .render import animate
     from .render.compare import mean_nearest_distance
     from .render.figures import Figure, strip_frames
     from .render.frames import default_camera
@@ -176,17 +212,33 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     n = pred.n_frames
     err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)
            for f in range(start, n)]
+    labels = ["SPH", f"learned: {model_path}"]
     fig = Figure.build([traj, pred], default_camera(traj, 360), None, 2, True)
-    fig.labels = ["SPH", f"learned: {model_path}"]
+    fig.labels = labels
     times = ",".join(f"{t:g}" for t in np.linspace(0.0, traj.time[n - 1], 4).round(2))
     with open(tmp / f"{name}_compare.png", "wb") as fh:
         iio.imwrite(fh, fig.strip(strip_frames(traj, times)), extension=".png")
-    names += [f"{name}.h5", f"{name}_compare.png"]
+    interrupt.check()
+    animate(traj, tmp / f"{name}_compare.gif", compare=pred, labels=labels, width=360)
+    names += [f"{name}.h5", f"{name}_compare.png", f"{name}_compare.gif"]
+    mine, sph, com_rel = compare_states(pred.position[n - 1], traj.position[n - 1], traj,
+                                        _active(traj, n - 1))
     stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
-    return (f"learned model{since}: {ro.steps} of {n_frames - start} steps ({stop}), "
-            f"{ro.ms_per_step:.1f} ms "
-            f"per step, mean nearest-particle error {1e3 * float(np.mean(err)):.1f} mm, "
-            f"final order heavy-below: {'yes' if order_ok(pred) else 'NO'}")
+    ok = order_ok(pred)
+    lines = [f"learned model {model_path}{since}: {ro.steps} of {n_frames - start} steps "
+             f"({stop}), {ro.ms_per_step:.1f} ms per step",
+             f"{'phase':<12}{'COM height SPH':>16}{'learned':>10}{'rel. err':>10}"]
+    for k, p in enumerate(traj.phases):
+        if np.isfinite(com_rel[k]):
+            lines.append(f"{p.name:<12}{sph['com_height'][k]:>16.3f}"
+                         f"{mine['com_height'][k]:>10.3f}{com_rel[k]:>10.3f}")
+    worst = float(np.nanmax(com_rel)) if np.isfinite(com_rel).any() else float("nan")
+    lines.append(f"largest COM height error {worst:.3f}, layer purity {mine['purity']:.2f} "
+                 f"(SPH {sph['purity']:.2f}), particles in walls (largest per step) "
+                 f"{int(ro.in_walls.max()) if len(ro.in_walls) else 0}, mean nearest-particle "
+                 f"error {1e3 * float(np.mean(err)):.1f} mm, final order heavy-below: "
+                 f"{'yes' if ok else 'NO'}")
+    return "\n".join(lines), ok
 
 
 def prefixed(ro, traj, start: int):

@@ -6,16 +6,18 @@ import sys
 import numpy as np
 
 from dcdc.data.dataset import Dataset, is_complete
-from dcdc.demo import order_ok, stratification
+from dcdc.demo import default_resolution, order_ok, stratification
 
 
 def test_demo_writes_complete_outputs(tmp_path):
     """0.1 s is too short for the cocktail (light oil starts at the bottom) to re-stratify:
-    the outputs are written all the same, and the order check fails with exit 2 and one line."""
+    the outputs are written all the same (SPH and, by default, the shipped dcdc2d beside it),
+    and the order check fails with exit 2 and one line."""
     r = subprocess.run([sys.executable, "-m", "dcdc.cli", "demo", "--duration", "0.1",
                         "--out", str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
-    errors = [ln for ln in r.stderr.splitlines() if "frame" not in ln and ln.strip()]  # tqdm bar
+    errors = [ln for ln in r.stderr.splitlines()  # without the tqdm bars (frames, steps)
+              if "frame" not in ln and "step" not in ln and ln.strip()]
     assert errors == [errors[0]] and errors[0].startswith("error: final phase order check failed"), r.stderr
     h5 = tmp_path / "cocktail_2d_res2.h5"
     assert is_complete(h5)
@@ -25,7 +27,10 @@ def test_demo_writes_complete_outputs(tmp_path):
         assert (tmp_path / name).stat().st_size > 1000
     assert "final order heavy-below: NO" in r.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "cocktail_2d_res2.gif", "cocktail_2d_res2.h5", "cocktail_2d_res2.png", "cocktail_2d_res2_final.ply"]
+        "cocktail_2d_res2.gif", "cocktail_2d_res2.h5", "cocktail_2d_res2.png",
+        "cocktail_2d_res2_dcdc.h5", "cocktail_2d_res2_dcdc_compare.gif",
+        "cocktail_2d_res2_dcdc_compare.png", "cocktail_2d_res2_final.ply"]
+    assert "learned model dcdc2d: 5 of 5 steps" in r.stdout
 
 
 def test_demo_bad_scene_is_one_line_error(tmp_path):
@@ -47,6 +52,12 @@ class _Traj:
         self.position = np.stack([np.zeros(4), y], 1)[None]
 
 
+def test_demo_scales_up_only_the_2d_cocktail():
+    assert default_resolution("cocktail", 2) == 2.0
+    assert default_resolution("cocktail", 3) == 1.0  # 8 048 particles already
+    assert default_resolution("hourglass", 2) == 1.0
+
+
 def test_stratification_order():
     assert order_ok(_Traj([1.0, 1.2, 0.1, 0.2]), 0)
     assert not order_ok(_Traj([0.1, 0.2, 1.0, 1.2]), 0)
@@ -63,9 +74,20 @@ def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
     code, stdout, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.4",
                                    "--model", "dcdc2d", "--out", out], capsys)
     assert code == 0
-    assert "learned model: 20 of 20 steps" in stdout
+    assert "learned model dcdc2d: 20 of 20 steps" in stdout
+    # the final state against SPH's: one row per phase, then the summary line
+    rows = [ln.split() for ln in stdout.splitlines() if ln.split()[:1] in (["light"], ["heavy"])]
+    assert len(rows) == 4  # the SPH table's two rows and the model's two
+    heights = {r[0]: [float(v) for v in r[1:]] for r in rows[2:]}
+    for sph, mine, rel in heights.values():
+        assert abs(rel - abs(mine - sph) / sph) < 2e-3
+    assert "largest COM height error" in stdout and "final order heavy-below: yes" in stdout
     assert (out / "lock_exchange_2d_dcdc.h5").is_file()
     assert (out / "lock_exchange_2d_dcdc_compare.png").stat().st_size > 10_000
+    import imageio.v3 as iio
+    gif = iio.imread(out / "lock_exchange_2d_dcdc_compare.gif", index=None)
+    assert gif.shape[0] == 11  # frames 0, 2, ..., 20 of SPH | model
+    assert gif.shape[2] > 2 * 360 - 1  # two panels side by side
     from dcdc.data.dataset import Dataset
     pred = Dataset(out / "lock_exchange_2d_dcdc.h5")["lock_exchange_2d_dcdc"]
     assert pred.n_frames == 21 and np.isfinite(pred.position).all()
@@ -89,7 +111,7 @@ def test_demo_settle_hands_the_model_the_sph_state(tmp_path, capsys):
     code, stdout, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.4",
                                    "--model", "dcdc2d", "--settle", "0.1", "--out", out], capsys)
     assert code == 0
-    assert "learned model from the SPH state at 0.1 s: 15 of 15 steps" in stdout
+    assert "learned model dcdc2d from the SPH state at 0.1 s: 15 of 15 steps" in stdout
     ds = Dataset(out)
     sph, pred = ds["lock_exchange_2d"], ds["lock_exchange_2d_dcdc"]
     assert pred.n_frames == sph.n_frames == 21
@@ -99,10 +121,52 @@ def test_demo_settle_hands_the_model_the_sph_state(tmp_path, capsys):
     stats = json.loads(pred.attrs["solver_stats"])  # the network's steps, not the SPH frames
     assert (stats["steps"], stats["sph_frames"]) == (15, 5)
     assert len(stats["in_walls"]) == 20 and float(pred.attrs["settled_by_sph_s"]) == 0.1
-    for args, msg in ((["--settle", "0.1"], "--settle goes with --model"),
+    for args, msg in ((["--model", "none", "--settle", "0.1"], "not with --model none"),
                       (["--model", "dcdc2d", "--settle", "0.4"], "not before the end"),
                       (["--model", "dcdc2d", "--settle", "0.03"], "multiple of")):
         code, _, err = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.4",
                                     *args, "--out", tmp_path / "bad"], capsys)
         assert code == 2 and msg in err and "Traceback" not in err, err
         assert not (tmp_path / "bad").exists()
+
+
+def test_demo_model_none_and_a_scene_the_shipped_model_does_not_fit(tmp_path, capsys):
+    """--model none runs SPH alone; the default model is skipped, with a note, on a scene
+    whose particle radius is not the one it was trained for (an explicit --model fails)."""
+    from helpers import dcdc_output
+
+    from dcdc.data.jobs import scene_jobs
+
+    out = tmp_path / "none"
+    code, stdout, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
+                                   "--model", "none", "--out", out], capsys)
+    assert code == 0 and "learned model" not in stdout
+    assert sorted(p.suffix for p in out.iterdir()) == [".gif", ".h5", ".ply", ".png"]
+    text = scene_jobs(["lock_exchange"], dim=2)[0].text()
+    scene = tmp_path / "fine.toml"
+    scene.write_text(text.replace('dim = 3', 'dim = 3\nradius = 0.02'))
+    code, stdout, _ = dcdc_output(["demo", "--scene", scene, "--dim", "2", "--duration",
+                                   "0.1", "--out", tmp_path / "auto"], capsys)
+    assert code == 0, stdout
+    assert "no learned model: the model is trained for particle radius 0.025 m" in stdout
+    assert not any("_dcdc" in p.name for p in (tmp_path / "auto").iterdir())
+    code, _, err = dcdc_output(["demo", "--scene", scene, "--dim", "2", "--duration", "0.1",
+                                "--model", "dcdc2d", "--out", tmp_path / "strict"], capsys)
+    assert code == 2 and "particle radius" in err and "Traceback" not in err
+    assert not (tmp_path / "strict").exists()
+
+
+def test_demo_fails_when_the_learned_model_ends_in_the_wrong_order(tmp_path, capsys,
+                                                                   monkeypatch):
+    """SPH's order right but the model's wrong: exit 2 with a one-line reason naming the
+    model (its outputs are still written)."""
+    from helpers import dcdc_output
+
+    import dcdc.demo as demo
+
+    monkeypatch.setattr(demo, "_neural_beside", lambda *a, **k: ("learned model: stub", False))
+    code, _, err = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
+                                "--out", tmp_path / "d"], capsys)
+    assert code == 2 and "for the learned model dcdc2d" in err
+    assert [ln for ln in err.splitlines() if ln.startswith("error:")] == [err.splitlines()[-1]]
+    assert (tmp_path / "d" / "lock_exchange_2d.h5").is_file()

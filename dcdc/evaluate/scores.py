@@ -101,6 +101,19 @@ def physical_state(x, phase, phases, radius, wall_x, domain_min, active):
     }
 
 
+def compare_states(pred_x, true_x, traj, active) -> tuple[dict, dict, np.ndarray]:
+    """:func:`physical_state` of a predicted and a true frame of ``traj`` (particles
+    ``active``) and the relative error of each phase's centre-of-mass height,
+    |h_pred - h_true| / |h_true| (docs/evaluation.md; its largest value is "COM err")."""
+    dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
+    pred, true = (physical_state(np.asarray(x, dtype=np.float64), traj.phase, traj.phases,
+                                 traj.radius, traj.wall_x, dmin, active)
+                  for x in (pred_x, true_x))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        com_rel = np.abs(pred["com_height"] - true["com_height"]) / np.abs(true["com_height"])
+    return pred, true, com_rel
+
+
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                      guard: Guard | None = None, sinkhorn_points: int = 1000,
                      contact: bool = True, start_frame: int = 0) -> dict:
@@ -140,13 +153,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
               - M.momentum(vel_t[s0 + k][act], mass[act]))
         mom.append(float(np.linalg.norm(dP)) / max(float(mass[act].sum()), 1e-30))
     act = traj.active(s0 + K)
-    dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
-    pred = physical_state(ro.position[K].astype(np.float64), phase, phases, traj.radius,
-                          traj.wall_x, dmin, act)
-    true = physical_state(pos_t[s0 + K].astype(np.float64), phase, phases, traj.radius,
-                          traj.wall_x, dmin, act)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        com_rel = np.abs(pred["com_height"] - true["com_height"]) / np.abs(true["com_height"])
+    pred, true, com_rel = compare_states(ro.position[K], pos_t[s0 + K], traj, act)
     sink = [M.sinkhorn_distance(ro.position[K][act & (phase == p)],
                                 pos_t[s0 + K][act & (phase == p)],
                                 blur=2 * traj.radius, max_points=sinkhorn_points)

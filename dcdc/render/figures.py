@@ -196,14 +196,20 @@ def snapshot_strip(traj, path, frames=None, n: int = 4, title: str | None = None
     return Path(path)
 
 
-def animate(traj, path, every: int = 2, fps: int = 25, width: int = 480) -> Path:
+def animate(traj, path, every: int = 2, fps: int = 25, width: int = 480, compare=None,
+            labels: list[str] | None = None) -> Path:
     """Every ``every``-th frame of ``traj`` to a GIF, an MP4 or a folder of PNGs (by the
-    name), with legend, time and scale bar."""
+    name), with legend, time and scale bar; with ``compare`` (a second trajectory of the
+    same scene and frame times) the two side by side through one camera, captioned with
+    their mean nearest-particle distance (:meth:`Figure.frame`), titled ``labels``."""
     from .frames import default_camera
     from .video import FrameWriter, frame_output, output_kind
-    fig = Figure.build([traj], default_camera(traj, width))
+    trajs = [traj] if compare is None else [traj, compare]
+    fig = Figure.build(trajs, default_camera(traj, width))
+    fig.labels = labels
+    n = min(t.n_frames for t in trajs)
     with frame_output(path, overwrite=True) as tmp, \
             FrameWriter(tmp, output_kind(path), fps) as writer:
-        for f in range(0, traj.n_frames, every):
+        for f in range(0, n, every):
             writer.append(fig.frame(f))
     return Path(path)
