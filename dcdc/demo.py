@@ -191,7 +191,6 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     from .data.dataset import Dataset
     from .evaluate.rollout import NeuralSimulator, run, write_rollout
     from .evaluate.scores import compare_states
-    from .render import animate
     from .render.compare import mean_nearest_distance
     from .render.figures import Figure, strip_frames
     from .render.frames import default_camera
@@ -212,19 +211,18 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     n = pred.n_frames
     err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)
            for f in range(start, n)]
-    labels = ["SPH", f"learned: {model_path}"]
     fig = Figure.build([traj, pred], default_camera(traj, 360), None, 2, True)
-    fig.labels = labels
+    fig.labels = ["SPH", f"learned: {model_path}"]
     times = ",".join(f"{t:g}" for t in np.linspace(0.0, traj.time[n - 1], 4).round(2))
     with open(tmp / f"{name}_compare.png", "wb") as fh:
         iio.imwrite(fh, fig.strip(strip_frames(traj, times)), extension=".png")
     interrupt.check()
-    animate(traj, tmp / f"{name}_compare.gif", compare=pred, labels=labels, width=360)
+    fig.write_video(tmp / f"{name}_compare.gif", range(0, n, 2), 25, overwrite=True)
     names += [f"{name}.h5", f"{name}_compare.png", f"{name}_compare.gif"]
     mine, sph, com_rel = compare_states(pred.position[n - 1], traj.position[n - 1], traj,
                                         _active(traj, n - 1))
     stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
-    ok = order_ok(pred)
+    ok = bool(mine["order_ok"])  # metrics.density_order_ok of medians, as order_ok(pred)
     lines = [f"learned model {model_path}{since}: {ro.steps} of {n_frames - start} steps "
              f"({stop}), {ro.ms_per_step:.1f} ms per step",
              f"{'phase':<12}{'COM height SPH':>16}{'learned':>10}{'rel. err':>10}"]

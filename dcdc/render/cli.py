@@ -68,7 +68,7 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
     from .figures import Figure, describe, open_trajectory, select_frames, strip_frames
     from .frames import default_camera
     from .output import atomic_file, check_output
-    from .video import FrameWriter, frame_output, output_kind
+    from .video import output_kind
 
     if bool(traj_path) == bool(compare):
         raise DcdcError("give either TRAJ or --compare A B")
@@ -110,11 +110,8 @@ def render_command(traj_path, out, name, compare, strip, frames, stride, fps, wi
         click.echo(f"wrote {out}")
         return
     rate = _fps(trajs[0], stride, fps)
-    with frame_output(out, overwrite) as tmp, FrameWriter(tmp, kind, rate) as writer, \
-            _progress(len(sel), not no_progress, "render") as bar:
-        for f in sel:
-            writer.append(fig.frame(f))
-            bar.update(1)
+    with _progress(len(sel), not no_progress, "render") as bar:
+        fig.write_video(out, sel, rate, overwrite, bar.update)
     click.echo(f"wrote {out} ({len(sel)} frames at {rate:g} fps)")
 
 

@@ -161,6 +161,19 @@ class Figure:
         caption = f"t = {t:.2f} s    mean nearest-particle distance {self.error_mm(f):.1f} mm"
         return vstack(row, self.title(w, caption), self.legend(w))
 
+    def write_video(self, path, frames, fps: float, overwrite: bool = False,
+                    progress=None) -> Path:
+        """:meth:`frame` of each of ``frames`` to a GIF, an MP4 or a folder of PNGs (by the
+        name of ``path``), written atomically; ``progress(1)`` after each frame."""
+        from .video import FrameWriter, frame_output, output_kind
+        with frame_output(path, overwrite) as tmp, \
+                FrameWriter(tmp, output_kind(path), fps) as writer:
+            for f in frames:
+                writer.append(self.frame(f))
+                if progress is not None:
+                    progress(1)
+        return Path(path)
+
     def strip(self, frames: list[int]) -> np.ndarray:
         """The frames side by side; two rows (A over B) when comparing."""
         cw = self.camera.width
@@ -196,20 +209,9 @@ def snapshot_strip(traj, path, frames=None, n: int = 4, title: str | None = None
     return Path(path)
 
 
-def animate(traj, path, every: int = 2, fps: int = 25, width: int = 480, compare=None,
-            labels: list[str] | None = None) -> Path:
+def animate(traj, path, every: int = 2, fps: int = 25, width: int = 480) -> Path:
     """Every ``every``-th frame of ``traj`` to a GIF, an MP4 or a folder of PNGs (by the
-    name), with legend, time and scale bar; with ``compare`` (a second trajectory of the
-    same scene and frame times) the two side by side through one camera, captioned with
-    their mean nearest-particle distance (:meth:`Figure.frame`), titled ``labels``."""
+    name), with legend, time and scale bar."""
     from .frames import default_camera
-    from .video import FrameWriter, frame_output, output_kind
-    trajs = [traj] if compare is None else [traj, compare]
-    fig = Figure.build(trajs, default_camera(traj, width))
-    fig.labels = labels
-    n = min(t.n_frames for t in trajs)
-    with frame_output(path, overwrite=True) as tmp, \
-            FrameWriter(tmp, output_kind(path), fps) as writer:
-        for f in range(0, n, every):
-            writer.append(fig.frame(f))
-    return Path(path)
+    fig = Figure.build([traj], default_camera(traj, width))
+    return fig.write_video(path, range(0, traj.n_frames, every), fps, overwrite=True)
