@@ -8,12 +8,20 @@
 # CI never has a GPU and nothing depends on this script.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-python3 -m venv .venv-gpu
-. .venv-gpu/bin/activate
-# PyPI's Linux wheel of torch==2.13.0 (the pinned version) carries CUDA; the CPU machines
-# install the CPU build of the same version from their package index instead
-pip install -q -e .
-python - <<'PY'
+if python3 -c "import torch, numba, h5py, click, tqdm, matplotlib, scipy" 2>/dev/null \
+        && python3 -c "import torch, sys; sys.exit(not torch.cuda.is_available())"; then
+    # an image that already holds torch with CUDA (e.g. an offline GPU machine): run from
+    # the checkout with its packages; the benchmarks import nothing else
+    export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
+    dcdc() { python3 -c "from dcdc.cli import main; main()" "$@"; }
+else
+    python3 -m venv .venv-gpu
+    . .venv-gpu/bin/activate
+    # PyPI's Linux wheel of torch==2.13.0 (the pinned version) carries CUDA; the CPU
+    # machines install the CPU build of the same version from their package index instead
+    pip install -q -e .
+fi
+python3 - <<'PY'
 import sys, torch
 if not torch.cuda.is_available():
     sys.exit(f"error: torch {torch.__version__} sees no CUDA device")
@@ -22,4 +30,4 @@ PY
 dcdc benchmark model --device cuda --particles 1000,10000,50000,100000 --repeat 10 \
     --json benchmarks/model_gpu.json
 dcdc benchmark table1 --device cuda --model3d dcdc3d --json benchmarks/table1_gpu.json \
-    --note "network on $(python -c 'import torch; print(torch.cuda.get_device_name(0))'), SPH on $(nproc) CPU cores"
+    --note "network on $(python3 -c 'import torch; print(torch.cuda.get_device_name(0))'), SPH on $(nproc) CPU cores"

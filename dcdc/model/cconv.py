@@ -335,8 +335,8 @@ class ConvGeometry:
         g = ConvGeometry(self.n_recv, int(n_send), self.dim, self.kernel_size, self.row_splits,
                          np.ascontiguousarray(src, dtype=np.int32), self.cells, self.weights,
                          self.sender, injective)
-        for key, val in self._cache.items():  # weights in other dtypes are the same
-            if key[0] == "w":
+        for key, val in self._cache.items():  # weights (other dtypes, on devices) are the same
+            if key[0] in ("w", "edges"):
                 g._cache[key] = val
         return g
 
@@ -540,24 +540,42 @@ class _NumbaCConv(torch.autograd.Function):
 
 
 # --------------------------------------------------------------------------- torch backend
-def _sparse_matrices(geom: ConvGeometry, dtype, device):
-    """M [R·cells, V] with M[i·cells + c, src] = Σ weights, and its transpose (both CSR)."""
-    key = ("sparse", dtype, str(device))
+def _edge_entries(geom: ConvGeometry, dtype, device):
+    """Row of M (receiver·cells + cell) and weight of every (edge, corner), built on ``device``.
+
+    Only the per-edge arrays travel (int32 cells, the weights); the int64 row index is formed
+    where it is used, so a CUDA step moves no [E·2^d] int64 arrays. Geometries made by
+    :meth:`ConvGeometry.with_sources` share these (same receivers, cells and weights).
+    """
+    key = ("edges", dtype, str(device))
     if key not in geom._cache:
-        nk = geom.cells.shape[1]
-        recv = np.repeat(geom.receivers().astype(np.int64), nk)
-        rows = recv * geom.n_cells + geom.cells.reshape(-1)
-        cols = np.repeat(geom.src.astype(np.int64), nk)
-        idx = torch.from_numpy(np.stack([rows, cols])).to(device)
+        counts = torch.from_numpy(np.diff(geom.row_splits)).to(device)
+        recv = torch.repeat_interleave(torch.arange(geom.n_recv, device=device), counts,
+                                       output_size=geom.n_edges)
+        cells = torch.from_numpy(geom.cells).to(device)
+        rows = (recv[:, None] * geom.n_cells + cells).reshape(-1)
         w = geom.weights_as(dtype) if dtype in (torch.float32, torch.float64) else geom.weights
-        val = torch.from_numpy(w.reshape(-1)).to(device=device, dtype=dtype)
+        geom._cache[key] = (rows, torch.from_numpy(w).to(device=device, dtype=dtype).reshape(-1))
+    return geom._cache[key]
+
+
+def _sparse_matrix(geom: ConvGeometry, dtype, device, transpose: bool = False):
+    """M [R·cells, V] with M[i·cells + c, src] = Σ weights (CSR), or its transpose Mt.
+
+    Built on ``device`` (the sort that orders the entries runs there too); the transpose is
+    built only when a backward pass asks for it.
+    """
+    key = ("sparse", transpose, dtype, str(device))
+    if key not in geom._cache:
+        rows, w = _edge_entries(geom, dtype, device)
+        cols = torch.from_numpy(geom.src).to(device).long().repeat_interleave(2 ** geom.dim)
         shape = (geom.n_recv * geom.n_cells, geom.n_send)
+        idx = torch.stack([cols, rows] if transpose else [rows, cols])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "sparse CSR support is in beta"
-            M = torch.sparse_coo_tensor(idx, val, shape, check_invariants=False).coalesce()
-            Mt = torch.sparse_coo_tensor(idx.flip(0), val, shape[::-1],
-                                         check_invariants=False).coalesce()
-            geom._cache[key] = (M.to_sparse_csr(), Mt.to_sparse_csr())
+            M = torch.sparse_coo_tensor(idx, w, shape[::-1] if transpose else shape,
+                                        check_invariants=False).coalesce()
+            geom._cache[key] = M.to_sparse_csr()
     return geom._cache[key]
 
 
@@ -567,8 +585,7 @@ class _TorchCConv(torch.autograd.Function):
     @staticmethod
     def forward(ctx, F, W, geom):
         ncell, cin, cout = W.shape
-        M, Mt = _sparse_matrices(geom, F.dtype, F.device)
-        A = (M @ F).reshape(geom.n_recv, ncell * cin)
+        A = (_sparse_matrix(geom, F.dtype, F.device) @ F).reshape(geom.n_recv, ncell * cin)
         ctx.save_for_backward(F, W)
         ctx.geom = geom
         return A @ W.reshape(ncell * cin, cout)
@@ -577,14 +594,14 @@ class _TorchCConv(torch.autograd.Function):
     def backward(ctx, gout):
         F, W = ctx.saved_tensors
         ncell, cin, cout = W.shape
-        M, Mt = _sparse_matrices(ctx.geom, F.dtype, F.device)
         gF = gW = None
         if ctx.needs_input_grad[1]:
-            A = (M @ F).reshape(ctx.geom.n_recv, ncell * cin)
+            A = _sparse_matrix(ctx.geom, F.dtype, F.device) @ F
+            A = A.reshape(ctx.geom.n_recv, ncell * cin)
             gW = (A.t() @ gout).reshape(ncell, cin, cout)
         if ctx.needs_input_grad[0]:
             dA = (gout @ W.reshape(ncell * cin, cout).t()).reshape(-1, cin)
-            gF = Mt @ dA
+            gF = _sparse_matrix(ctx.geom, F.dtype, F.device, transpose=True) @ dA
         return gF, gW, None
 
 
