@@ -37,7 +37,7 @@ def test_hourglass_drains_the_heavy_phase():
     sy = _run("hourglass", 2, 1.0)
     heavy = np.flatnonzero([p.name == "heavy" for p in sy.phases])[0]
     below = np.mean(sy.x[sy.phase == heavy, 1] < 0.9)  # the neck is at half the 1.8 m cavity
-    # measured at 15 s: 0.88 (cfl 0.4), 0.90 (cfl 0.35), 0.905 (correction_speed 4); the
-    # exchange through the neck is chaotic, run to run of numerically equal settings it
-    # varies by a few %; 11 % at 1 s, 50-60 % at 5 s
-    assert below >= 0.85, below
+    # issue 8: >= 90 % within the scene's duration (22 s). Measured in one run: 88 % at
+    # 15 s, 94 % at 20 s, 96 % at 22 s; the exchange through the neck is chaotic, run to run
+    # of numerically equal settings it varies by a few %
+    assert below >= 0.9, below

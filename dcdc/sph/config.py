@@ -47,6 +47,10 @@ class SPHConfig:
         refinement; 0 = off.
     xsph: strength ε of the momentum-conserving XSPH velocity filter (damps the odd-even
         particle modes that SPH's centred divergence cannot see; 0 = off).
+    interface_damping: true: ``viscosity`` and ``xsph`` act between all neighbours; false:
+        only between particles of the same phase, so that unlike phases are coupled by
+        their own (physical) viscosities and the pressure alone (docs/sph.md, "Interface
+        damping").
     no_slip: walls with friction: the Morris viscosity term against the (resting) wall
         particles with each fluid particle's own kinematic viscosity (phase + ``viscosity``);
         false (default): free slip, the walls push but exert no tangential force.
@@ -102,6 +106,7 @@ class SPHConfig:
     viscosity: float = 1e-3
     smagorinsky: float = 0.0
     xsph: float = 0.1
+    interface_damping: bool = True
     no_slip: bool = False
     boundary: str = "map"
     wall_buoyancy: bool = False

@@ -22,8 +22,9 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
     mu = s.mu
     if s.eddy_length2 > 0:  # Smagorinsky: ν_t = (C_s 2r)² |S|
         mu = s.mu + s.rho0 * s.eddy_length2 * strain_rate(s.v, nbh.rs, nbh.idx, nbh.G, s.V0)
-    a = viscosity_acceleration(s.x, s.v, s.rho0, mu, no_slip, nbh.rs, nbh.idx, nbh.G,
-                               s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
+    mu_cross = mu if s.mu_cross is None else s.mu_cross
+    a = viscosity_acceleration(s.x, s.v, s.rho0, mu, mu_cross, s.phase, no_slip, nbh.rs,
+                               nbh.idx, nbh.G, s.wall_x, nbh.rsb, nbh.idxb, nbh.Gb, s.Vb, s.V0, s.h)
     a += s.gravity
     if nbh.wall_moment is not None:
         a += wall_hydrostatic_acceleration(s, nbh)
@@ -52,6 +53,8 @@ def wall_hydrostatic_acceleration(s: State, nbh: Neighbourhood) -> np.ndarray:
 
 
 def smooth_velocity(s: State, nbh: Neighbourhood, xsph: float) -> None:
-    """Apply the momentum-conserving XSPH filter in place (no-op for ``xsph == 0``)."""
+    """Apply the momentum-conserving XSPH filter in place (no-op for ``xsph == 0``); within
+    each phase only where the stabilisation stops at interfaces (``s.mu_cross`` set)."""
     if xsph > 0:
-        s.v += xsph_velocity_change(s.v, s.rho0, nbh.rs, nbh.idx, nbh.W, s.V0, xsph)
+        s.v += xsph_velocity_change(s.v, s.rho0, s.phase, s.mu_cross is not None, nbh.rs,
+                                    nbh.idx, nbh.W, s.V0, xsph)

@@ -66,6 +66,7 @@ class Simulator:
         self._rho0 = system.rest_density
         nu = system.viscosity + cfg.viscosity
         self._mu = self._rho0 * nu
+        self._mu_cross = None if cfg.interface_damping else self._rho0 * system.viscosity
         n = system.n_fluid
         self._p = np.zeros(n)
         self._p_div = np.zeros(n)
@@ -192,7 +193,8 @@ class Simulator:
         sel = (lambda a: a) if active is None else (lambda a: a[active])
         return State(sel(sy.x), sel(sy.v), sel(sy.phase), sel(self._rho0), sel(self._mu),
                      sel(self._p), sel(self._p_div), sy.wall_x, self.Vb, sy.gravity, self.V0, self.h,
-                     self._interface, (self.cfg.smagorinsky * 2.0 * sy.radius) ** 2)
+                     self._interface, (self.cfg.smagorinsky * 2.0 * sy.radius) ** 2,
+                     None if self._mu_cross is None else sel(self._mu_cross))
 
     def _store(self, active, s: State) -> None:
         if active is None:

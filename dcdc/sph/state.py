@@ -24,6 +24,9 @@ class State:
     interface: tuple[str, np.ndarray] | None = None
     # (C_s · 2r)² of the Smagorinsky eddy viscosity (SPHConfig.smagorinsky); 0 = off
     eddy_length2: float = 0.0
+    # SPHConfig.interface_damping off: the dynamic viscosity of unlike pairs (ρ0 ν_phase, no
+    # artificial part), and XSPH within each phase only; None = the stabilisation acts on all
+    mu_cross: np.ndarray | None = None
 
     @property
     def dim(self) -> int:

@@ -258,10 +258,12 @@ def strain_rate(v, rs, idx, G, V0):
 
 
 @nb.njit(cache=True, parallel=True)
-def viscosity_acceleration(x, v, rho0, mu, no_slip, rs, idx, G, wall_x, rsb, idxb, Gb, Vb, V0, h):
+def viscosity_acceleration(x, v, rho0, mu, mu_cross, phase, no_slip, rs, idx, G, wall_x, rsb,
+                           idxb, Gb, Vb, V0, h):
     """Morris et al. (1997) viscosity with harmonic-mean dynamic viscosity μ_ij (momentum
-    conserving between phases), plus, if ``no_slip``, friction against the resting wall
-    particles with the particle's own kinematic viscosity μ_i / ρ0_i."""
+    conserving between phases; pairs of unlike phases use ``mu_cross`` instead of ``mu``),
+    plus, if ``no_slip``, friction against the resting wall particles with the particle's
+    own kinematic viscosity μ_i / ρ0_i."""
     n, d = x.shape
     out = np.zeros((n, d))
     eps = 0.01 * h * h
@@ -271,10 +273,14 @@ def viscosity_acceleration(x, v, rho0, mu, no_slip, rs, idx, G, wall_x, rsb, idx
             j = idx[e]
             if j == i:
                 continue
-            mij = mu[i] + mu[j]
+            if phase[i] == phase[j]:
+                mi, mj = mu[i], mu[j]
+            else:
+                mi, mj = mu_cross[i], mu_cross[j]
+            mij = mi + mj
             if mij <= 0.0:
                 continue
-            mij = 2.0 * mu[i] * mu[j] / mij
+            mij = 2.0 * mi * mj / mij
             vx = 0.0
             r2 = 0.0
             for k in range(d):
@@ -337,15 +343,16 @@ def neighbour_counts(rs, rsb):
 
 
 @nb.njit(cache=True, parallel=True)
-def xsph_velocity_change(v, rho0, rs, idx, W, V0, eps):
+def xsph_velocity_change(v, rho0, phase, same_phase_only, rs, idx, W, V0, eps):
     """XSPH velocity smoothing (Monaghan 1989) with reduced-mass weights, momentum conserving
-    between phases: Δv_i = ε Σ_j 2 ρ0_j/(ρ0_i + ρ0_j) V0 W_ij (v_j - v_i)."""
+    between phases: Δv_i = ε Σ_j 2 ρ0_j/(ρ0_i + ρ0_j) V0 W_ij (v_j - v_i), the sum over
+    the particles of i's own phase only if ``same_phase_only``."""
     n, d = v.shape
     out = np.zeros((n, d))
     for i in nb.prange(n):
         for e in range(rs[i], rs[i + 1]):
             j = idx[e]
-            if j == i:
+            if j == i or (same_phase_only and phase[j] != phase[i]):
                 continue
             f = eps * 2.0 * rho0[j] / (rho0[i] + rho0[j]) * V0 * W[e]
             for k in range(d):
