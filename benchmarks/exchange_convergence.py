@@ -80,7 +80,8 @@ def hourglass(r: float, cfg_over: dict, seed: int = 0) -> dict:
     half = np.flatnonzero(below >= 0.5)
     at = lambda t: float(below[int(round(t / 0.02)) - 1])  # noqa: E731
     return {"r": r, "n": sy.n_fluid, "seed": seed, "below_5s": at(5.0), "below_10s": at(10.0),
-            "below_15s": at(15.0), "t_half": float(ts[half[0]]) if len(half) else None,
+            "below_15s": at(15.0), "below_end": float(below[-1]), "duration": scene.duration,
+            "t_half": float(ts[half[0]]) if len(half) else None,
             "wall_s": time.perf_counter() - t0}
 
 
@@ -117,7 +118,7 @@ def main():
                       f"{row['fr_light']:>9.3f} {row['wall_s']:>7.1f}", flush=True)
     if a.only in (None, "hourglass"):
         print(f"{'hourglass':<14} {'r mm':>5} {'seed':>4} {'N':>6} {'below 5 s':>9} {'10 s':>6} {'15 s':>6} "
-              f"{'t half':>7} {'wall s':>7}")
+              f"{'end':>6} {'t half':>7} {'wall s':>7}")
         for name, cfg in cfgs.items():
             over = {"xsph": cfg.xsph, "viscosity": cfg.viscosity}
             for r, seed in [(r, k) for r in hg_r for k in a.seeds]:
@@ -125,7 +126,7 @@ def main():
                 doc["hourglass"].append(row)
                 th = f"{row['t_half']:.2f}" if row["t_half"] is not None else "-"
                 print(f"{name:<14} {r * 1e3:>5.1f} {seed:>4} {row['n']:>6} {row['below_5s']:>9.3f} "
-                      f"{row['below_10s']:>6.3f} {row['below_15s']:>6.3f} {th:>7} "
+                      f"{row['below_10s']:>6.3f} {row['below_15s']:>6.3f} {row['below_end']:>6.3f} {th:>7} "
                       f"{row['wall_s']:>7.1f}", flush=True)
     doc["finished"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
     if a.json:
