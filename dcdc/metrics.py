@@ -160,6 +160,53 @@ def trapped_at_walls(x, phase, phase_densities, wall_x, radius: float) -> np.nda
                      for k in range(len(dens))])
 
 
+def _column_search(x, points, half_width: float, up: int):
+    """Pairs (x_i, points_j) in the same vertical column: horizontal distance <= half_width."""
+    from .neighbors import radius_search
+
+    h = np.delete(np.asarray(x, dtype=np.float64), up, axis=1)
+    hp = np.delete(np.asarray(points, dtype=np.float64), up, axis=1)
+    if h.shape[1] == 1:  # 2-D: one horizontal axis, padded for the 2|3-D search
+        h, hp = np.pad(h, ((0, 0), (0, 1))), np.pad(hp, ((0, 0), (0, 1)))
+    return radius_search(h, half_width, hp)
+
+
+def pooled_heavy(x, phase, phase_densities, wall_x, radius: float, up: int = 1,
+                 depth_rows: int = 3) -> tuple[float, float]:
+    """Does the densest phase collect in the depressions of uneven ground (the canyon)?
+
+    Per particle i: its floor f_i, the highest wall particle below it within a column of
+    half-width 2r, and the depth of fluid there, the highest fluid particle of that column
+    minus f_i. A particle is *pooled* where that depth is at least ``depth_rows`` spacings
+    (a basin or the pool at a downstream wall, not a film running down a slope). A pooled
+    particle is *inverted* if a particle of a lighter phase lies more than r below it in its
+    column of half-width r. Returns (share of the densest phase's particles that are pooled,
+    share of the pooled particles that are inverted): 1 and 0 when the heavy liquid has
+    gathered in the basins under the lighter ones. Heights along axis ``up``."""
+    x = np.asarray(x, dtype=np.float64)
+    phase = np.asarray(phase)
+    dens = np.asarray(phase_densities, dtype=np.float64)
+    wall_x = np.asarray(wall_x, dtype=np.float64)
+    nb = _column_search(x, wall_x, 2.0 * radius, up)
+    rec, yb = nb.receivers(), wall_x[nb.index, up]
+    below = yb < x[rec, up]
+    floor = np.full(len(x), -np.inf)
+    np.maximum.at(floor, rec[below], yb[below])
+    nf = _column_search(x, x, 2.0 * radius, up)
+    top = np.full(len(x), -np.inf)
+    np.maximum.at(top, nf.receivers(), x[nf.index, up])
+    pooled = np.isfinite(floor) & (top - floor >= depth_rows * 2.0 * radius)
+    nn = _column_search(x, x, radius, up)
+    ri, rj = nn.receivers(), nn.index
+    under_lighter = (x[rj, up] < x[ri, up] - radius) & (dens[phase[rj]] < dens[phase[ri]])
+    inverted = np.zeros(len(x), dtype=bool)
+    inverted[ri[under_lighter]] = True
+    is_heavy = phase == int(np.argmax(dens))
+    pooled_share = float(pooled[is_heavy].mean()) if is_heavy.any() else 0.0
+    inverted_share = float(inverted[pooled].mean()) if pooled.any() else 0.0
+    return pooled_share, inverted_share
+
+
 # ---------------------------------------------------------------------------- volume / density
 def phase_volumes(psi, phase, volume: float, n_phases: int | None = None) -> np.ndarray:
     """Volume per phase V_k = Σ_{i∈k} V / max(ψ_i, 1) [P] from the number density ψ_i = ρ_i/ρ0_i.

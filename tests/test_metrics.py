@@ -133,3 +133,37 @@ def test_sinkhorn_distance_of_clouds_far_apart_against_the_blur():
     a = rng.random((90, 2)) * [0.4, 0.2]
     d = M.sinkhorn_distance(a, a + [2.0, 0.5], blur=0.05)
     assert d == pytest.approx(np.hypot(2.0, 0.5), rel=0.05)
+
+
+def _basin(r=0.025):
+    """A 2-D V-shaped basin of wall particles (slopes ±0.5) with fluid rows filling it to
+    6 rows above its lowest point; returns (fluid x, wall x, row index of each particle)."""
+    s = 2 * r
+    xs = np.arange(-1.0, 1.0 + 1e-9, s)
+    wall = np.stack([xs, 0.5 * np.abs(xs)], 1)
+    pts, rows = [], []
+    for k in range(6):
+        y = 2 * r + k * s
+        for x in xs:
+            if 0.5 * abs(x) + 2 * r <= y + 1e-9:
+                pts.append((x, y))
+                rows.append(k)
+    return np.array(pts), wall, np.array(rows)
+
+
+def test_pooled_heavy_on_a_basin():
+    """Heavy in the bottom rows of a basin: all pooled, none inverted; the same rows with
+    the phases swapped: the light rows under the heavy ones count as inverted; heavy as a
+    thin film running down a slope (one row, no fluid above): not pooled."""
+    r = 0.025
+    x, wall, rows = _basin(r)
+    dens = [1000.0, 3000.0]
+    heavy_low = np.where(rows < 2, 1, 0)
+    pooled, inverted = M.pooled_heavy(x, heavy_low, dens, wall, r)
+    assert pooled == 1.0 and inverted == 0.0
+    _, inverted = M.pooled_heavy(x, 1 - heavy_low, dens, wall, r)
+    assert inverted > 0.3
+    film = np.stack([np.linspace(0.3, 0.9, 13), 0.5 * np.linspace(0.3, 0.9, 13) + 2 * r], 1)
+    ph = np.ones(len(film), dtype=int)
+    pooled, _ = M.pooled_heavy(film, ph, dens, wall, r)
+    assert pooled == 0.0
