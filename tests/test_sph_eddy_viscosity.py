@@ -50,7 +50,9 @@ def test_eddy_viscosity_force_conserves_momentum_and_dissipates(dim):
     l2 = (0.12 * 0.05) ** 2
     mu = rho0 * l2 * strain_rate(v, nbh.rs, nbh.idx, nbh.G, V0)
     assert (mu > 0).all()
-    a = viscosity_acceleration(x, v, rho0, mu, mu, np.zeros(len(x), np.int32), False, nbh.rs, nbh.idx, nbh.G, np.zeros((0, dim)),
+    one_phase = np.zeros(len(x), np.int32)
+    a = viscosity_acceleration(x, v, rho0, mu, mu, one_phase, False, nbh.rs, nbh.idx, nbh.G,
+                               np.zeros((0, dim)),
                                nbh.rsb, nbh.idxb, nbh.Gb, np.zeros(0), V0, 0.1)
     m = rho0 * V0
     force = (m[:, None] * a).sum(0)
