@@ -17,7 +17,8 @@ solver's stabilisation at full strength (the defaults: XSPH ε = 0.1, artificial
 ``--quick`` runs only the two coarsest radii of each; ``--hourglass-radii`` other radii (the
 fourth, 8.84 mm = 12.5/√2, in ``benchmarks/exchange_convergence_hourglass_r4.json``);
 ``--only``, ``--settings`` and
-``--seeds 1 2 …`` (hourglass ensemble members with a 1 mm/s random start) select parts.
+``--seeds 1 2 …`` (ensemble members with a 1 mm/s random start, both flows),
+``--lock-radii`` and ``--viscous-nu`` (the "viscous" setting: no XSPH, that viscosity) select parts.
 Prints a table; the JSON holds every number and the wall times. The hourglass exchange is
 chaotic: single runs of numerically equal settings differ by several % in the drained
 fraction, so compare ensembles.
@@ -41,19 +42,21 @@ from dcdc.sph.cases import LOCK_H, lock_exchange_run
 NECK_Y = 0.9  # the hourglass neck: half the 1.8 m cavity
 
 
-def settings(base: SPHConfig) -> dict[str, SPHConfig]:
-    """The stabilisation at full strength, halved, and off."""
+def settings(base: SPHConfig, viscous_nu: float = 2.6e-3) -> dict[str, SPHConfig]:
+    """The stabilisation at full strength, halved, and off; "viscous": no XSPH and a
+    viscosity ``viscous_nu`` (docs/sph.md: the defaults' effective viscosity at 5 mm)."""
     d = base.to_dict()
     return {"default": base,
             "half": SPHConfig.from_dict({**d, "xsph": 0.5 * base.xsph, "viscosity": 0.5 * base.viscosity}),
-            "off": SPHConfig.from_dict({**d, "xsph": 0.0, "viscosity": 0.0})}
+            "off": SPHConfig.from_dict({**d, "xsph": 0.0, "viscosity": 0.0}),
+            "viscous": SPHConfig.from_dict({**d, "xsph": 0.0, "viscosity": viscous_nu})}
 
 
-def lock(r: float, cfg: SPHConfig) -> dict:
-    d = lock_exchange_run(r, cfg)
+def lock(r: float, cfg: SPHConfig, seed: int = 0) -> dict:
+    d = lock_exchange_run(r, cfg, seed=seed)
     scale = math.sqrt(d["gp"] * LOCK_H)
-    return {"r": r, "n": d["n"], "fr_heavy": d["heavy"] / scale, "fr_light": d["light"] / scale,
-            "wall_s": d["wall"]}
+    return {"r": r, "n": d["n"], "seed": seed, "fr_heavy": d["heavy"] / scale,
+            "fr_light": d["light"] / scale, "wall_s": d["wall"]}
 
 
 def hourglass(r: float, cfg_over: dict, seed: int = 0) -> dict:
@@ -93,7 +96,11 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="*", default=[0],
                     help="hourglass ensemble members (0 = unperturbed; see hourglass())")
     ap.add_argument("--settings", nargs="*", default=["default", "half", "off"],
-                    choices=["default", "half", "off"])
+                    choices=["default", "half", "off", "viscous"])
+    ap.add_argument("--viscous-nu", type=float, default=2.6e-3,
+                    help="viscosity of the 'viscous' setting [m²/s]")
+    ap.add_argument("--lock-radii", type=float, nargs="*", default=None,
+                    help="lock-exchange particle radii [m] (default 0.01 0.007 0.005 0.0035)")
     ap.add_argument("--hourglass-radii", type=float, nargs="*", default=None,
                     help="hourglass particle radii [m] (default 0.025 0.0177 0.0125)")
     a = ap.parse_args()
@@ -101,20 +108,23 @@ def main():
     hg_r = [0.025, 0.0177] if a.quick else [0.025, 0.0177, 0.0125]
     if a.hourglass_radii:
         hg_r = a.hourglass_radii
-    cfgs = {k: v for k, v in settings(SPHConfig()).items() if k in a.settings}
+    if a.lock_radii:
+        lock_r = a.lock_radii
+    cfgs = {k: v for k, v in settings(SPHConfig(), a.viscous_nu).items() if k in a.settings}
     doc = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
            "numba_threads": os.environ.get("NUMBA_NUM_THREADS", "default"),
            "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
            "lock_exchange": [], "hourglass": []}
     if a.only in (None, "lock"):
-        print(f"{'lock exchange':<14} {'r mm':>5} {'N':>6} {'Fr heavy':>9} {'Fr light':>9} {'wall s':>7}")
+        print(f"{'lock exchange':<14} {'r mm':>5} {'seed':>4} {'N':>6} {'Fr heavy':>9} "
+              f"{'Fr light':>9} {'wall s':>7}")
         for name, cfg in cfgs.items():
-            for r in lock_r:
+            for r, seed in [(r, k) for r in lock_r for k in a.seeds]:
                 if name == "half" and r < 0.005:
                     continue  # the halving is read at 5 mm, as in validate-sph
-                row = {"setting": name, **lock(r, cfg)}
+                row = {"setting": name, **lock(r, cfg, seed)}
                 doc["lock_exchange"].append(row)
-                print(f"{name:<14} {r * 1e3:>5.1f} {row['n']:>6} {row['fr_heavy']:>9.3f} "
+                print(f"{name:<14} {r * 1e3:>5.1f} {seed:>4} {row['n']:>6} {row['fr_heavy']:>9.3f} "
                       f"{row['fr_light']:>9.3f} {row['wall_s']:>7.1f}", flush=True)
     if a.only in (None, "hourglass"):
         print(f"{'hourglass':<14} {'r mm':>5} {'seed':>4} {'N':>6} {'below 5 s':>9} {'10 s':>6} {'15 s':>6} "
