@@ -37,7 +37,7 @@ import numpy as np
 
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import LOCK_H, lock_exchange_run
+from dcdc.sph.cases import lock_exchange_run
 
 NECK_Y = 0.9  # the hourglass neck: half the 1.8 m cavity
 
@@ -54,9 +54,8 @@ def settings(base: SPHConfig, viscous_nu: float = 2.6e-3) -> dict[str, SPHConfig
 
 def lock(r: float, cfg: SPHConfig, seed: int = 0) -> dict:
     d = lock_exchange_run(r, cfg, seed=seed)
-    scale = math.sqrt(d["gp"] * LOCK_H)
-    return {"r": r, "n": d["n"], "seed": seed, "fr_heavy": d["heavy"] / scale,
-            "fr_light": d["light"] / scale, "wall_s": d["wall"]}
+    return {"r": r, "n": d["n"], "seed": seed, "depth": d["H"], "fr_heavy": d["fr_heavy"],
+            "fr_light": d["fr_light"], "wall_s": d["wall"]}
 
 
 def hourglass(r: float, cfg_over: dict, seed: int = 0) -> dict:
