@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .interfaces import csf_acceleration, pairwise_acceleration
+from .kernels import lattice_second_moment
 from .neighbourhood import Neighbourhood
 from .state import State
 from .terms import (background_acceleration, cohesion_acceleration, mixture_density,
@@ -58,3 +59,13 @@ def smooth_velocity(s: State, nbh: Neighbourhood, xsph: float) -> None:
     if xsph > 0:
         s.v += xsph_velocity_change(s.v, s.rho0, s.phase, s.mu_cross is not None, nbh.rs,
                                     nbh.idx, nbh.W, s.V0, xsph)
+
+
+def xsph_viscosity(eps: float, radius: float, support: float, dt: float, dim: int) -> float:
+    """The kinematic viscosity [m²/s] that the XSPH filter amounts to for a smooth flow.
+
+    Per substep Δv_i = ε Σ_j V0 W_ij (v_j − v_i) ≈ ε (M2 / 2d) ∇²v (Taylor expansion of v
+    about x_i on the rest lattice, M2 = :func:`~dcdc.sph.kernels.lattice_second_moment`),
+    i.e. per unit time ν ∇²v with ν = ε M2 / (2 d Δt): it falls only ∝ r with a CFL substep
+    (docs/sph.md, "What the default stabilisation amounts to")."""
+    return eps * lattice_second_moment(2.0 * radius, support * radius, dim) / (2.0 * dim * dt)

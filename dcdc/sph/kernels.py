@@ -81,6 +81,16 @@ def lattice_volume(spacing: float, h: float, dim: int) -> float:
     return 1.0 / float(cubic(r, h, dim).sum())
 
 
+def lattice_second_moment(spacing: float, h: float, dim: int) -> float:
+    """M2 = Σ_k V0 W(|x_k|) |x_k|² over the rest lattice (V0 = :func:`lattice_volume`): the
+    kernel's second moment, which sets the viscosity of a velocity filter (XSPH)."""
+    n = int(np.ceil(h / spacing))
+    ax = np.arange(-n, n + 1) * spacing
+    grids = np.meshgrid(*([ax] * dim), indexing="ij")
+    r2 = sum(g.ravel() ** 2 for g in grids)
+    return lattice_volume(spacing, h, dim) * float((cubic(np.sqrt(r2), h, dim) * r2).sum())
+
+
 def cubic_values(r: np.ndarray, h: float, dim: int) -> tuple[np.ndarray, np.ndarray]:
     """W(r) and dW/dr of the cubic spline above as numpy array operations (for tables built
     once: the walls' volume map, the interfacial-tension sums)."""
