@@ -509,6 +509,7 @@ def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
             bool(shape < 1.1)),
     ]
 
+
 def _damping_reynolds(cfg: SPHConfig, r: float, run: dict) -> float:
     """The lock exchange's Reynolds number UH/ν with ν the stabilisation's: XSPH as a
     viscosity (:func:`dcdc.sph.forces.xsph_viscosity`, at the speed-floor CFL substep) plus

@@ -67,6 +67,15 @@ def cohesion_kernel(r: float, h: float) -> float:
     return c * (2.0 * a - h ** 6 / 64.0)
 
 
+def _lattice_r2(spacing: float, h: float, dim: int) -> np.ndarray:
+    """Squared distances from a node of the cubic lattice to every node within the box
+    [-h, h]^d (those beyond h carry W = 0)."""
+    n = int(np.ceil(h / spacing))
+    ax = np.arange(-n, n + 1) * spacing
+    grids = np.meshgrid(*([ax] * dim), indexing="ij")
+    return sum(g.ravel() ** 2 for g in grids)
+
+
 def lattice_volume(spacing: float, h: float, dim: int) -> float:
     """Rest volume consistent with the kernel: 1 / Σ_k W(k·spacing) over the cubic lattice.
 
@@ -74,20 +83,13 @@ def lattice_volume(spacing: float, h: float, dim: int) -> float:
     sum differs from 1 by ~0.1 % (2-D, h = 2s), which an incompressible solver would try to
     remove by expanding a fluid at rest. With this volume the initial lattice has ψ = 1.
     """
-    n = int(np.ceil(h / spacing))
-    ax = np.arange(-n, n + 1) * spacing
-    grids = np.meshgrid(*([ax] * dim), indexing="ij")
-    r = np.sqrt(sum(g.ravel() ** 2 for g in grids))
-    return 1.0 / float(cubic(r, h, dim).sum())
+    return 1.0 / float(cubic(np.sqrt(_lattice_r2(spacing, h, dim)), h, dim).sum())
 
 
 def lattice_second_moment(spacing: float, h: float, dim: int) -> float:
     """M2 = Σ_k V0 W(|x_k|) |x_k|² over the rest lattice (V0 = :func:`lattice_volume`): the
     kernel's second moment, which sets the viscosity of a velocity filter (XSPH)."""
-    n = int(np.ceil(h / spacing))
-    ax = np.arange(-n, n + 1) * spacing
-    grids = np.meshgrid(*([ax] * dim), indexing="ij")
-    r2 = sum(g.ravel() ** 2 for g in grids)
+    r2 = _lattice_r2(spacing, h, dim)
     return lattice_volume(spacing, h, dim) * float((cubic(np.sqrt(r2), h, dim) * r2).sum())
 
 
