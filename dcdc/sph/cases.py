@@ -600,8 +600,11 @@ def film_rise(dim: int, r: float, cfg: SPHConfig, depth: float, T: float = FILM[
     mean height rises in ``T`` s, and the share of it still within the film."""
     f = FILM
     size = _depth_size(dim, f["W"], depth + 0.05, f["span"])
-    top = lambda p: f["thickness"] + f["amplitude"] * np.cos(2 * np.pi * p[:, 0] / f["wavelength"])  # noqa: E731
-    fill = lambda p: np.where(p[:, 1] > depth, -1, np.where(p[:, 1] < top(p), 1, 0))  # noqa: E731
+
+    def fill(p):  # light below the perturbed film top, heavy above it up to ``depth``
+        top = f["thickness"] + f["amplitude"] * np.cos(2 * np.pi * p[:, 0] / f["wavelength"])
+        return np.where(p[:, 1] > depth, -1, np.where(p[:, 1] < top, 1, 0))
+
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), fill)],
                      [Phase("heavy", 1000.0 * ratio), Phase("light", 1000.0)], name="film")
     light = sy.phase == 1
