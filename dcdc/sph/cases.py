@@ -579,6 +579,18 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
              Row(c, "light speed change, xsph & viscosity / 2", dl, "0", "info", None),
              Row(c, "Fr heavy / light, xsph & viscosity off", off["fr_heavy"], "0.5",
                  f"light {off['fr_light']:.3f}; info", None)]
+    if cfg.reference_density == 0:
+        # the same with the hydrostatic reference of the light phase (a gauge in this closed,
+        # filled box; dcdc.sph.reference): how much of the speed the pressure level takes
+        gauge = {**cfg.to_dict(), "reference_density": LOCK_RHO[1],
+                 "reference_level": LOCK_H + 2 * radii[-1]}
+        ref = lock_exchange_run(radii[-1], SPHConfig.from_dict(gauge))
+        ref_half = lock_exchange_run(radii[-1], SPHConfig.from_dict(
+            {**gauge, "xsph": 0.5 * cfg.xsph, "viscosity": 0.5 * cfg.viscosity}))
+        rows += [Row(c, "Fr heavy / light, reference_density = 1000", ref["fr_heavy"], "0.5",
+                     f"light {ref['fr_light']:.3f}; info", None),
+                 Row(c, "heavy speed change, same, xsph & viscosity / 2",
+                     ref_half["heavy"] / ref["heavy"] - 1.0, "0", "info", None)]
     if len(res) == 3:
         u = [d["fr_heavy"] for d in res]  # Fr: the depth is rounded to whole rows per radius
         d_coarse, d_fine = abs(u[1] - u[0]), abs(u[2] - u[1])

@@ -81,6 +81,17 @@ class SPHConfig:
         pressure solve nor :meth:`Simulator.pressure`; it keeps a band whose capillary
         stress is tensile ("csf") from clumping. Only for scenes without a free surface
         (there ∇ψ points inward and p_b would blow the surface apart). 0 = off (default).
+    reference_density: ρ_ref [kg/m³] of a hydrostatic reference pressure
+        q = ρ_ref |g| max(L - height, 0) that is applied as its exact gradient (a uniform
+        body force against gravity below L) instead of through the pair-sum pressure force;
+        the solves then find p - q (:mod:`dcdc.sph.reference`). A gauge in the continuum;
+        discretely the particle arrangement's stiffness then follows p - q, not the depth,
+        so thin layers deep under heavier fluid can move (row ``thin_film``). Exact in a
+        container without a free surface; with one, only while it stays at
+        ``reference_level``. At most the lightest phase's density. 0 = off (default).
+    reference_level: L [m], the height (along -g) where q = 0: for a closed, completely
+        filled container any height at or above the fluid (e.g. its lid); with a free
+        surface, its height at rest.
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -115,6 +126,8 @@ class SPHConfig:
     interfacial_tension: dict = field(default_factory=dict)
     interfacial_model: str = "pairwise"
     background_pressure: float = 0.0
+    reference_density: float = 0.0
+    reference_level: float = 0.0
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -134,7 +147,8 @@ class SPHConfig:
         for name in positive:
             _check_number(self, name, lambda v: v > 0, "> 0")
         for name in ("viscosity", "xsph", "surface_tension", "sound_speed", "correction_speed",
-                     "background_pressure", "wall_contact_support", "smagorinsky"):
+                     "background_pressure", "wall_contact_support", "smagorinsky",
+                     "reference_density"):
             _check_number(self, name, lambda v: v >= 0, ">= 0")
         for name in ("min_iterations", "max_iterations"):
             v = getattr(self, name)
@@ -147,6 +161,7 @@ class SPHConfig:
             raise DcdcError(f"sph.support must exceed 2 particle radii (got {self.support})")
         if self.cfl > 1.0:
             raise DcdcError(f"sph.cfl must be <= 1 (got {self.cfl})")
+        _check_number(self, "reference_level", lambda v: True, "[m]")
         if self.omega > 1.0:
             raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
         if self.dt_min > self.dt_max:

@@ -6,6 +6,7 @@ import numpy as np
 from .interfaces import csf_acceleration, pairwise_acceleration
 from .kernels import lattice_second_moment
 from .neighbourhood import Neighbourhood
+from .reference import reference_acceleration
 from .state import State
 from .terms import (background_acceleration, cohesion_acceleration, mixture_density,
                     strain_rate, viscosity_acceleration, xsph_velocity_change)
@@ -40,6 +41,8 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
     if background_pressure > 0:
         a += background_acceleration(background_pressure, s.rho0, nbh.rs, nbh.idx, nbh.G,
                                      nbh.Sb, s.V0)
+    if s.reference is not None:
+        a += reference_acceleration(s.x, s.gravity, s.rho0, *s.reference)
     return a
 
 

@@ -37,6 +37,7 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
+from .reference import reference_pressure
 from .state import State
 
 
@@ -75,6 +76,13 @@ class Simulator:
         C = interfaces.coefficients(cfg.interfacial_model, cfg.interfacial_tension,
                                     system.phases, self.h, self.V0, system.dim)
         self._interface = None if C is None else (cfg.interfacial_model, C)
+        self._reference = None
+        if cfg.reference_density > 0:
+            lightest = min(ph.density for ph in system.phases)
+            if cfg.reference_density > lightest:
+                raise DcdcError(f"sph.reference_density ({cfg.reference_density:g}) exceeds the "
+                                f"lightest phase's density ({lightest:g} kg/m³)")
+            self._reference = (cfg.reference_density, cfg.reference_level)
         # Brackbill et al.'s capillary bound is the CSF's; "pairwise" keeps its old steps
         self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
                               if cfg.interfacial_model == "csf" else math.inf)
@@ -111,10 +119,13 @@ class Simulator:
             if self.volume_map is not None:
                 self.volume_map.keep_outside(s.x, s.v)
             self._store(active, s)
+            p_total = s.p + s.p_div
+            if self._reference is not None:
+                p_total = p_total + reference_pressure(s.x, s.gravity, *self._reference)
             if active is None:
-                p_sum += dt * (s.p + s.p_div)
+                p_sum += dt * p_total
             else:
-                p_sum[active] += dt * (s.p + s.p_div)
+                p_sum[active] += dt * p_total
             self.time += dt
             n_sub += 1
             its.append(info["iterations"])
@@ -160,7 +171,8 @@ class Simulator:
     def pressure(self) -> np.ndarray:
         """Pressure [Pa] of each fluid particle over the last frame: the Δt-weighted mean of
         the divergence-free and constant-density pressures of its substeps (WCSPH: of the
-        equation of state); 0 for inactive particles (module doc: why a mean)."""
+        equation of state), plus the reference pressure q where ``reference_density`` is
+        set; 0 for inactive particles (module doc: why a mean)."""
         return self._p_frame.copy()
 
     def density(self) -> np.ndarray:
@@ -194,7 +206,7 @@ class Simulator:
         return State(sel(sy.x), sel(sy.v), sel(sy.phase), sel(self._rho0), sel(self._mu),
                      sel(self._p), sel(self._p_div), sy.wall_x, self.Vb, sy.gravity, self.V0, self.h,
                      self._interface, (self.cfg.smagorinsky * 2.0 * sy.radius) ** 2,
-                     None if self._mu_cross is None else sel(self._mu_cross))
+                     None if self._mu_cross is None else sel(self._mu_cross), self._reference)
 
     def _store(self, active, s: State) -> None:
         if active is None:

@@ -27,6 +27,9 @@ class State:
     # SPHConfig.interface_damping off: the dynamic viscosity of unlike pairs (ρ0 ν_phase, no
     # artificial part), and XSPH within each phase only; None = the stabilisation acts on all
     mu_cross: np.ndarray | None = None
+    # SPHConfig.reference_density > 0: (ρ_ref, L) of the hydrostatic reference pressure
+    # (dcdc.sph.reference); None = off
+    reference: tuple[float, float] | None = None
 
     @property
     def dim(self) -> int:

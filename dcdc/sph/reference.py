@@ -1,0 +1,49 @@
+"""A hydrostatic reference pressure taken out of the pair-sum pressure force
+(``SPHConfig.reference_density`` = ρ_ref, ``reference_level`` = L; docs/sph.md, "Why light
+fluid stays under heavy fluid").
+
+The symmetric pressure force a_i = -(1/ρ0_i)[V0 Σ_j (p_i + p_j) G_ij + β p_i S_b,i] is, for a
+smooth p, ≈ -(1/ρ0_i)(∇p + 2 p_i ∇ψ_i): its level term keeps the particles ordered, and also
+gives the arrangement a stiffness that grows with the pressure, i.e. with depth, so thin
+layers deep under heavier fluid do not move (row ``thin_film`` of ``dcdc validate-sph``).
+
+Split p = q + p' with the hydrostatic pressure of a reference density below a level,
+
+    q(x) = ρ_ref |g| max(L - x·e, 0),   e = -g/|g|,
+
+apply q through its exact gradient, a uniform body force a_i = (ρ_ref |g| / ρ0_i) e on every
+particle below L, and let the pressure solves find p' >= 0 as they found p before. In the
+continuum this is a gauge: -∇p/ρ0 = -∇p'/ρ0 - ∇q/ρ0 exactly, so nothing changes; discretely
+the pair sum's level term sees p' = p - q only. The body force is an external potential
+(energy conserving).
+
+Where it holds: in a container without a free surface (a closed, completely filled box, any
+L at or above the fluid) it is exact. With a free surface it holds only while that surface
+stays at L: fluid at a free surface below L keeps the body force but not its pressure, and
+floats. ρ_ref must not exceed the lightest phase's density, or p' would have to be negative
+at rest (measured: the layer blows up).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def up_and_g(gravity: np.ndarray) -> tuple[np.ndarray, float]:
+    """Unit vector against gravity and |g| (zero gravity: a zero vector and 0)."""
+    g = float(np.linalg.norm(gravity))
+    return (np.zeros_like(gravity) if g == 0.0 else -np.asarray(gravity) / g), g
+
+
+def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref: float,
+                       level: float) -> np.ndarray:
+    """q_i = ρ_ref |g| max(L - x_i·e, 0) [Pa]."""
+    up, g = up_and_g(gravity)
+    return rho_ref * g * np.maximum(level - x @ up, 0.0)
+
+
+def reference_acceleration(x: np.ndarray, gravity: np.ndarray, rho0: np.ndarray,
+                           rho_ref: float, level: float) -> np.ndarray:
+    """-∇q/ρ0_i = (ρ_ref |g| / ρ0_i) e below L, 0 above [m/s²]."""
+    up, g = up_and_g(gravity)
+    below = (x @ up) < level
+    return (below * rho_ref * g / rho0)[:, None] * up[None, :]
