@@ -1,0 +1,20 @@
+"""The 2-D hourglass with the hydrostatic reference (reference_density 1000 = the light
+phase, reference_level 1.75 m = the fill height under a 5 cm air gap) at the scene's 25 mm and
+at 12.5 mm, two ensemble members each (docs/sph.md, "The hydrostatic reference").
+
+    python benchmarks/hourglass_reference_density.py   [OUT.json]
+"""
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from exchange_convergence import hourglass  # noqa: E402
+
+out = []
+for r in (0.025, 0.0125):
+    for seed in (0, 1):
+        row = hourglass(r, {"reference_density": 1000.0, "reference_level": 1.75}, seed)
+        row.pop("below", None)
+        out.append(row); print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in row.items() if k != "frames"}), flush=True)
+json.dump(out, open(sys.argv[1] if len(sys.argv) > 1 else "hourglass_reference_density.json", "w"), indent=1)
