@@ -11,10 +11,21 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from exchange_convergence import hourglass  # noqa: E402
 
-out = []
-for r in (0.025, 0.0125):
-    for seed in (0, 1):
-        row = hourglass(r, {"reference_density": 1000.0, "reference_level": 1.75}, seed)
-        row.pop("below", None)
-        out.append(row); print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in row.items() if k != "frames"}), flush=True)
-json.dump(out, open(sys.argv[1] if len(sys.argv) > 1 else "hourglass_reference_density.json", "w"), indent=1)
+REFERENCE = {"reference_density": 1000.0, "reference_level": 1.75}
+
+
+def main() -> None:
+    out = []
+    for r in (0.025, 0.0125):
+        for seed in (0, 1):
+            row = hourglass(r, REFERENCE, seed)
+            out.append(row)
+            print(json.dumps({k: round(v, 3) if isinstance(v, float) else v
+                              for k, v in row.items()}), flush=True)
+    path = sys.argv[1] if len(sys.argv) > 1 else "hourglass_reference_density.json"
+    with open(path, "w") as f:
+        json.dump(out, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
