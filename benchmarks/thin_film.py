@@ -17,7 +17,7 @@ import platform
 import time
 
 from dcdc.sph import SPHConfig
-from dcdc.sph.cases import FILM, film_rise
+from dcdc.sph.cases import FILM, film_pair
 
 RUNS = [  # (label, dim, r, settings)
     ("2-D r 10 mm (quick)", 2, 0.01, {}),
@@ -40,12 +40,11 @@ def main() -> None:
     for label, dim, r, settings in RUNS:
         cfg = SPHConfig.from_dict(settings)
         t0 = time.perf_counter()
-        deep = film_rise(dim, r, cfg, FILM["deep"])
-        shallow = film_rise(dim, r, cfg, FILM["shallow"])
+        pair = film_pair(dim, r, cfg)
         wall = time.perf_counter() - t0
-        ratio = deep["rise"] / shallow["rise"] if shallow["rise"] > 0 else 0.0
-        out["runs"].append({"run": label, "dim": dim, "r": r, "settings": settings,
-                            "deep": deep, "shallow": shallow, "ratio": ratio, "wall_s": wall})
+        deep, shallow, ratio = pair["deep"], pair["shallow"], pair["ratio"]
+        out["runs"].append({"run": label, "dim": dim, "r": r, "settings": settings, **pair,
+                            "wall_s": wall})
         print(f"{label:<34} {deep['n']:>7} {1e3 * deep['rise']:>15.2f} "
               f"{1e3 * shallow['rise']:>17.2f} {ratio:>7.3f} {deep['left']:>10.3f} "
               f"{shallow['left']:>12.3f} {wall:>7.0f}", flush=True)

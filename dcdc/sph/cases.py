@@ -520,6 +520,12 @@ def _damping_reynolds(cfg: SPHConfig, r: float, run: dict) -> float:
     return U * run["H"] / nu if nu > 0 else math.inf
 
 
+def _halved_damping(settings: dict) -> SPHConfig:
+    """These solver settings with ``xsph`` and ``viscosity`` halved."""
+    return SPHConfig.from_dict({**settings, "xsph": 0.5 * settings["xsph"],
+                                "viscosity": 0.5 * settings["viscosity"]})
+
+
 def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """Full-depth lock exchange (2-D): 1500 | 1000 kg/m³ side by side in a closed 1.6 × 0.2 m
     tank (free-slip floor and lid) exchange as two gravity currents, the heavy one along the
@@ -555,9 +561,7 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
         return [Row("lock exchange 3D", "not run (2-D only)", float("nan"), "-", "info", None)]
     radii = [0.01] if quick else [0.01, 0.007, 0.005]
     res = [lock_exchange_run(r, cfg) for r in radii]
-    half = SPHConfig.from_dict({**cfg.to_dict(), "xsph": 0.5 * cfg.xsph,
-                                "viscosity": 0.5 * cfg.viscosity})
-    low = lock_exchange_run(radii[-1], half)
+    low = lock_exchange_run(radii[-1], _halved_damping(cfg.to_dict()))
     off = lock_exchange_run(radii[-1], SPHConfig.from_dict({**cfg.to_dict(), "xsph": 0.0,
                                                             "viscosity": 0.0}))
     band = lambda fr: bool(abs(fr / 0.5 - 1.0) <= 0.15)  # noqa: E731
@@ -585,8 +589,7 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
         gauge = {**cfg.to_dict(), "reference_density": LOCK_RHO[1],
                  "reference_level": LOCK_H + 2 * radii[-1]}
         ref = lock_exchange_run(radii[-1], SPHConfig.from_dict(gauge))
-        ref_half = lock_exchange_run(radii[-1], SPHConfig.from_dict(
-            {**gauge, "xsph": 0.5 * cfg.xsph, "viscosity": 0.5 * cfg.viscosity}))
+        ref_half = lock_exchange_run(radii[-1], _halved_damping(gauge))
         rows += [Row(c, "Fr heavy / light, reference_density = 1000", ref["fr_heavy"], "0.5",
                      f"light {ref['fr_light']:.3f}; info", None),
                  Row(c, "heavy speed change, same, xsph & viscosity / 2",
@@ -627,6 +630,14 @@ def film_rise(dim: int, r: float, cfg: SPHConfig, depth: float, T: float = FILM[
             "left": float(np.mean(y < f["thickness"] + f["amplitude"] + r))}
 
 
+def film_pair(dim: int, r: float, cfg: SPHConfig) -> dict:
+    """:func:`film_rise` under the deep and the shallow layer of ``FILM``, and the ratio of
+    the rises (deep / shallow; 0 when the shallow film does not rise)."""
+    deep, shallow = (film_rise(dim, r, cfg, FILM[k]) for k in ("deep", "shallow"))
+    ratio = deep["rise"] / shallow["rise"] if shallow["rise"] > 0 else 0.0
+    return {"deep": deep, "shallow": shallow, "ratio": ratio}
+
+
 def thin_film(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """Rayleigh-Taylor of a thin light film on a floor, under a deep and a shallow layer.
 
@@ -637,8 +648,8 @@ def thin_film(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     pair-sum pressure force's lattice stiffness grows with the pressure (docs/sph.md, "Why
     light fluid stays under heavy fluid"): this row measures it."""
     r = 0.01 if quick else (0.005 if dim == 2 else 0.0075)
-    runs = {k: film_rise(dim, r, cfg, FILM[k]) for k in ("deep", "shallow")}
-    ratio = runs["deep"]["rise"] / runs["shallow"]["rise"] if runs["shallow"]["rise"] > 0 else 0.0
+    runs = film_pair(dim, r, cfg)
+    ratio = runs["ratio"]
     c = f"thin film 2:1 {dim}D (N={runs['deep']['n']}/{runs['shallow']['n']}, {FILM['T']:g} s)"
     rows = [Row(c, "rise under 0.3 m / under 0.12 m", ratio, "1", "0.67-1.5",
                 bool(2 / 3 <= ratio <= 1.5))]
