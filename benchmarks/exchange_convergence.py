@@ -19,6 +19,10 @@ fourth, 8.84 mm = 12.5/√2, in ``benchmarks/exchange_convergence_hourglass_r4.j
 ``--only``, ``--settings`` and
 ``--seeds 1 2 …`` (ensemble members with a 1 mm/s random start, both flows),
 ``--lock-radii`` and ``--viscous-nu`` (the "viscous" setting: no XSPH, that viscosity) select parts.
+``--closed`` starts every setting from the closed-container settings instead of the defaults
+(the hydrostatic reference of the light phase, a tenth of the damping:
+:func:`dcdc.sph.reference.closed_container`, what the built-in scenes now use; JSON in
+``benchmarks/exchange_convergence_closed.json``).
 Prints a table; the JSON holds every number and the wall times. The hourglass exchange is
 chaotic: single runs of numerically equal settings differ by several % in the drained
 fraction, so compare ensembles.
@@ -37,7 +41,8 @@ import numpy as np
 
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import lock_exchange_run
+from dcdc.sph.cases import LOCK_RHO, lock_exchange_run
+from dcdc.sph.reference import closed_container
 
 NECK_Y = 0.9  # the hourglass neck: half the 1.8 m cavity
 
@@ -91,6 +96,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--closed", action="store_true",
+                    help="start from the closed-container settings (reference, a tenth of the damping)")
     ap.add_argument("--only", choices=["lock", "hourglass"], default=None)
     ap.add_argument("--seeds", type=int, nargs="*", default=[0],
                     help="hourglass ensemble members (0 = unperturbed; see hourglass())")
@@ -109,11 +116,13 @@ def main():
         hg_r = a.hourglass_radii
     if a.lock_radii:
         lock_r = a.lock_radii
-    cfgs = {k: v for k, v in settings(SPHConfig(), a.viscous_nu).items() if k in a.settings}
+    base = (SPHConfig.from_dict(closed_container(SPHConfig().to_dict(), LOCK_RHO[1])) if a.closed
+            else SPHConfig())
+    cfgs = {k: v for k, v in settings(base, a.viscous_nu).items() if k in a.settings}
     doc = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
            "numba_threads": os.environ.get("NUMBA_NUM_THREADS", "default"),
            "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-           "lock_exchange": [], "hourglass": []}
+           "base": base.to_dict(), "lock_exchange": [], "hourglass": []}
     if a.only in (None, "lock"):
         print(f"{'lock exchange':<14} {'r mm':>5} {'seed':>4} {'N':>6} {'Fr heavy':>9} "
               f"{'Fr light':>9} {'wall s':>7}")
@@ -129,7 +138,7 @@ def main():
         print(f"{'hourglass':<14} {'r mm':>5} {'seed':>4} {'N':>6} {'below 5 s':>9} {'10 s':>6} {'15 s':>6} "
               f"{'end':>6} {'t half':>7} {'wall s':>7}")
         for name, cfg in cfgs.items():
-            over = {"xsph": cfg.xsph, "viscosity": cfg.viscosity}
+            over = cfg.to_dict()  # the whole setting, not the scene's own [solver] table
             for r, seed in [(r, k) for r in hg_r for k in a.seeds]:
                 row = {"setting": name, **hourglass(r, over, seed)}
                 doc["hourglass"].append(row)

@@ -37,9 +37,9 @@ def test_hourglass_drains_the_heavy_phase():
     sy = _run("hourglass", 2, 1.0)
     heavy = np.flatnonzero([p.name == "heavy" for p in sy.phases])[0]
     below = np.mean(sy.x[sy.phase == heavy, 1] < 0.9)  # the neck is at half the 1.8 m cavity
-    # issue 8: >= 90 % within the scene's duration (22 s). Measured in one run: 88 % at
-    # 15 s, 94 % at 20 s, 96 % at 22 s; the exchange through the neck is chaotic, run to run
-    # of numerically equal settings it varies by a few %
+    # issue 8: >= 90 % within the scene's duration (15 s). Measured with the scene's
+    # closed-container settings: 100 % from 10 s in three runs (60-71 % at 5 s; the exchange
+    # through the neck is chaotic); with the open-scene defaults 88 % at 15 s, 96 % at 22 s
     assert below >= 0.9, below
 
 

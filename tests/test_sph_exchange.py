@@ -31,20 +31,22 @@ def test_fronts_on_synthetic_currents():
 
 
 def test_quick_lock_exchange_runs():
-    """The quick 2-D variant (about 7 s on 2 cores) returns finite Froude numbers and its
-    checks, and the information rows with XSPH and artificial viscosity off and with the
-    hydrostatic reference (``reference_density``). It fails at
-    present (Fr 0.08 / 0.23 against 0.5; 0.29 / 0.38 with the dissipation off, docs/sph.md);
-    this test guards the case, not the physics. 3-D returns one information row."""
+    """The quick 2-D variant (r = 10 mm, about 30 s on 2 cores) returns finite Froude
+    numbers and its checks, run with the closed-container settings (the hydrostatic
+    reference, a tenth of the default damping), and information rows with XSPH and artificial
+    viscosity off and with the given settings as they are. Halving the damping changes the
+    heavy front by less than 5 % (measured +2.5 %; -1.5 / +3 % in two perturbed starts);
+    without the reference and with the full damping the heavy front crawls (Fr 0.08
+    against 0.41, docs/sph.md "Closed containers"). 3-D returns one information row."""
     rows = CASES["lock_exchange"](2, True, SPHConfig())
     checks = [r for r in rows if r.passed is not None]
     assert len(checks) == 3
     assert all(math.isfinite(r.measured) for r in rows)
+    halving = next(r for r in checks if r.quantity.startswith("heavy speed change"))
+    assert halving.passed, halving
     fr = [r.measured for r in rows if r.quantity.startswith("Fr")]
-    # heavy, light, heavy with dissipation off, heavy with the hydrostatic reference
+    # heavy, light, heavy with the dissipation off, heavy with the given settings
     assert len(fr) == 4 and all(f > 0 for f in fr)
-    # in this closed, filled box the reference is a gauge; without the pressure level's
-    # lattice stiffness the heavy front along the floor runs faster (0.30 against 0.08)
-    assert fr[3] > 1.5 * fr[0], fr
+    assert fr[0] > 1.5 * fr[3], fr
     rows3 = CASES["lock_exchange"](3, True, SPHConfig())
     assert len(rows3) == 1 and rows3[0].passed is None

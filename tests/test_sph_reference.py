@@ -73,3 +73,39 @@ def test_energy_budget_holds_with_the_reference():
     row = energy.row("rt")
     assert row.passed, row
     assert sy.x[sy.phase == 0, 1].mean() < sy.x[sy.phase == 1, 1].mean() + 0.05  # it moved
+
+
+def test_the_level_defaults_to_the_fill_height():
+    """reference_level unset: the top of the fluid at the start (highest centre + r), here
+    0.2 m in a 0.3 m tall closed tank filled to 0.2 m; an explicit level is used as given."""
+    W, H, r = 0.4, 0.3, 0.02
+    sy = tank_system(2, r, (W, 0.2), [((0, 0), (W, 0.2), lambda p: np.zeros(len(p), int))],
+                     [Phase("w", 1000.0)], wall_height=H, closed=True)
+    top = sy.x[:, 1].max() + r
+    assert abs(top - 0.2) < 1e-9
+    assert Simulator(sy, SPHConfig(reference_density=800.0))._reference == (800.0, top)
+    assert Simulator(sy, SPHConfig(reference_density=800.0, reference_level=0.5))._reference[1] == 0.5
+
+
+def test_reference_level_settings():
+    """None (unset) and numbers are accepted and survive a round trip; anything else is a
+    one-line error."""
+    assert SPHConfig.from_dict({}).reference_level is None
+    assert SPHConfig.from_dict({"reference_level": 1}).reference_level == 1.0
+    c = SPHConfig(reference_density=500.0)
+    assert SPHConfig.from_dict(c.to_dict()) == c
+    for bad in ("top", float("nan"), True):
+        with pytest.raises(DcdcError, match="reference_level"):
+            SPHConfig.from_dict({"reference_level": bad})
+
+
+def test_the_built_in_closed_scenes_carry_the_closed_settings():
+    """lock_exchange and hourglass are filled to 5 cm under a lid: they run with the
+    reference of their light phase and the closed-container damping that the validation's
+    lock-exchange rows check (dcdc.sph.reference.closed_container)."""
+    from dcdc.scene import get_scene
+    from dcdc.sph.reference import closed_container
+    for name in ("lock_exchange", "hourglass"):
+        scene = get_scene(name)
+        light = min(p["density"] for p in scene.data["phases"].values())
+        assert scene.check_solver() == SPHConfig.from_dict(closed_container({}, light)), name

@@ -91,7 +91,8 @@ class SPHConfig:
         ``reference_level``. At most the lightest phase's density. 0 = off (default).
     reference_level: L [m], the height (along -g) where q = 0: for a closed, completely
         filled container any height at or above the fluid (e.g. its lid); with a free
-        surface, its height at rest.
+        surface, its height at rest. Unset (None, the default) = the top of the fluid at the
+        start, the highest particle centre + r (a scene's fill height at any resolution).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -127,7 +128,7 @@ class SPHConfig:
     interfacial_model: str = "pairwise"
     background_pressure: float = 0.0
     reference_density: float = 0.0
-    reference_level: float = 0.0
+    reference_level: float | None = None
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -161,7 +162,8 @@ class SPHConfig:
             raise DcdcError(f"sph.support must exceed 2 particle radii (got {self.support})")
         if self.cfl > 1.0:
             raise DcdcError(f"sph.cfl must be <= 1 (got {self.cfl})")
-        _check_number(self, "reference_level", lambda v: True, "[m]")
+        if self.reference_level is not None:
+            _check_number(self, "reference_level", lambda v: True, "[m]")
         if self.omega > 1.0:
             raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
         if self.dt_min > self.dt_max:
@@ -193,6 +195,11 @@ class SPHConfig:
         for k, v in d.items():
             f = known[k]
             default = f.default if f.default is not MISSING else f.default_factory()
+            if default is None:  # an optional number (reference_level): None or a float
+                if v is None:
+                    kw[k] = v
+                    continue
+                default = 0.0
             if isinstance(default, float) and isinstance(v, int) and not isinstance(v, bool):
                 v = float(v)
             if type(v) is not type(default):

@@ -37,7 +37,7 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
-from .reference import reference_pressure
+from .reference import fill_level, reference_pressure
 from .state import State
 
 
@@ -82,7 +82,9 @@ class Simulator:
             if cfg.reference_density > lightest:
                 raise DcdcError(f"sph.reference_density ({cfg.reference_density:g}) exceeds the "
                                 f"lightest phase's density ({lightest:g} kg/m³)")
-            self._reference = (cfg.reference_density, cfg.reference_level)
+            level = (fill_level(system.x[system.birth <= 0.0], system.gravity, r)
+                     if cfg.reference_level is None else cfg.reference_level)
+            self._reference = (cfg.reference_density, level)
         # Brackbill et al.'s capillary bound is the CSF's; "pairwise" keeps its old steps
         self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
                               if cfg.interfacial_model == "csf" else math.inf)
