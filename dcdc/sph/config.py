@@ -93,6 +93,14 @@ class SPHConfig:
         filled container any height at or above the fluid (e.g. its lid); with a free
         surface, its height at rest. Unset (None, the default) = the top of the fluid at the
         start, the highest particle centre + r (a scene's fill height at any resolution).
+    reference_surface: (with ``reference_density``) L follows the fluid: at every substep it is
+        one particle diameter below the lowest free-surface particle (a one-sided
+        neighbourhood, walls included: :func:`dcdc.sph.reference.surface_level`), so the
+        reference holds wherever the fluid is covered up to L, in open scenes too: the
+        surface's troughs, splashes and droplets below the bulk lower L instead of floating.
+        ``reference_level`` must be unset; ``reference_density`` 0 (unset) then means 0.9 ×
+        the lightest phase's density (:data:`dcdc.sph.reference.AUTO_REFERENCE`). Off by default (docs/sph.md, "A level that follows
+        the surface").
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -129,6 +137,7 @@ class SPHConfig:
     background_pressure: float = 0.0
     reference_density: float = 0.0
     reference_level: float | None = None
+    reference_surface: bool = False
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -155,7 +164,7 @@ class SPHConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise DcdcError(f"sph.{name} must be an integer >= 1 (got {v!r})")
-        for name in ("divergence_solve", "no_slip", "wall_buoyancy"):
+        for name in ("divergence_solve", "no_slip", "wall_buoyancy", "reference_surface"):
             if not isinstance(getattr(self, name), bool):
                 raise DcdcError(f"sph.{name} must be true or false (got {getattr(self, name)!r})")
         if self.support <= 2.0:
@@ -164,6 +173,9 @@ class SPHConfig:
             raise DcdcError(f"sph.cfl must be <= 1 (got {self.cfl})")
         if self.reference_level is not None:
             _check_number(self, "reference_level", lambda v: True, "[m]")
+            if self.reference_surface is True:
+                raise DcdcError("sph.reference_surface sets the reference level itself: "
+                                "leave sph.reference_level unset")
         if self.omega > 1.0:
             raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
         if self.dt_min > self.dt_max:

@@ -37,7 +37,7 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
-from .reference import fill_level, reference_pressure
+from .reference import AUTO_REFERENCE, fill_level, grad_psi, reference_pressure, surface_level
 from .state import State
 
 
@@ -77,14 +77,16 @@ class Simulator:
                                     system.phases, self.h, self.V0, system.dim)
         self._interface = None if C is None else (cfg.interfacial_model, C)
         self._reference = None
-        if cfg.reference_density > 0:
-            lightest = min(ph.density for ph in system.phases)
-            if cfg.reference_density > lightest:
+        lightest = min(ph.density for ph in system.phases)
+        rho_ref = cfg.reference_density or (AUTO_REFERENCE * lightest if cfg.reference_surface else 0.0)
+        if rho_ref > 0:
+            if rho_ref > lightest:
                 raise DcdcError(f"sph.reference_density ({cfg.reference_density:g}) exceeds the "
                                 f"lightest phase's density ({lightest:g} kg/m³)")
             level = (fill_level(system.x[system.birth <= 0.0], system.gravity, r)
                      if cfg.reference_level is None else cfg.reference_level)
-            self._reference = (cfg.reference_density, level)
+            self._reference = (rho_ref, level)
+            self._fill = level  # reference_surface: the level while no particle is at a surface
         # Brackbill et al.'s capillary bound is the CSF's; "pairwise" keeps its old steps
         self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
                               if cfg.interfacial_model == "csf" else math.inf)
@@ -113,6 +115,13 @@ class Simulator:
                 self.time = t_end
                 break
             nbh = self._neighbourhood(s)
+            if self._reference is not None and cfg.reference_surface:
+                # one diameter below the lowest surface particle: the surface's own rows, and
+                # the floor row under a thin surge, keep their full weight
+                level = surface_level(s.x, grad_psi(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
+                                      s.gravity, margin=2.0 * self.system.radius)
+                self._reference = s.reference = (self._reference[0], self._fill if level is None
+                                                 else level)
             dt = self._choose_dt(s, t_end - self.time)
             if cfg.solver == "dfsph":
                 info = dfsph.substep(s, nbh, dt, cfg)
