@@ -23,6 +23,11 @@ stays at L: fluid at a free surface below L keeps the body force but not its pre
 floats. ρ_ref must not exceed the lightest phase's density, or p' would have to be negative
 at rest where that phase lies on top (measured, 2-D full 2:1 collapse with light 500: ρ_ref
 750 breaks the energy budget, +446 %; ρ_ref 1000 leaves layer purity 0.70).
+
+Two ways of using it (docs/sph.md): closed, completely filled containers with L at the fill
+height and a tenth of the damping (:func:`closed_container`, the built-in lock exchange and
+hourglass), and ``reference_surface``, where L follows the lowest free-surface particle
+(:func:`surface_level`) so that no surface lies below it, in open scenes too.
 """
 from __future__ import annotations
 
@@ -53,8 +58,9 @@ SURFACE_GRADIENT = 0.75  # |∇ψ| h above this: a particle at a free surface (b
 def surface_level(x: np.ndarray, grad_psi: np.ndarray, h: float, gravity: np.ndarray,
                   margin: float = 0.0) -> float | None:
     """The height (along -g) of the lowest particle at a free surface, less ``margin``; None
-    where there is none (a closed, filled container). A particle is at a free surface where its neighbourhood
-    is one-sided, |∇ψ| h > :data:`SURFACE_GRADIENT` (walls count in ψ). Not ψ itself: DFSPH
+    where there is none (a closed, filled container). A particle is at a free surface where
+    its neighbourhood is one-sided, |∇ψ| h > :data:`SURFACE_GRADIENT` (walls count in ψ,
+    ``reference_surface``; docs/sph.md, "A level that follows the surface"). Not ψ: DFSPH
     packs a free surface's top rows to ψ ≈ 1 (measured, 2-D cocktail at 3 s: 27 of its 30
     highest particles at ψ ≥ 0.93, |∇ψ| h 0.6-1.7 there against a median of 0.09)."""
     up, _ = up_and_g(gravity)
@@ -85,9 +91,9 @@ def reference_acceleration(x: np.ndarray, gravity: np.ndarray, rho0: np.ndarray,
 CLOSED_DAMPING = {"xsph": 0.01, "viscosity": 1e-4}
 """XSPH strength and artificial viscosity [m²/s] of closed containers: a tenth of the defaults.
 With the reference the packing of a closed, filled two-layer tank at rest needs no more
-(2-D, r = 10 mm, 3 s: mean speed 0.8 % of sqrt(gH), against 1.3 % with the defaults and no
-reference), and halving it changes the lock exchange's fronts by 3 % (docs/sph.md, "Closed
-containers"). The built-in ``lock_exchange`` and ``hourglass`` scenes set these values."""
+(2-D, r = 10 mm, 3 s: mean speed 1.0 % of sqrt(gH) at the end, against 1.3 % with the
+defaults and no reference; ``benchmarks/closed_containers.py``), and halving it changes the
+lock exchange's heavy front by 3 % at 5 mm (docs/sph.md, "Closed containers"). The built-in ``lock_exchange`` and ``hourglass`` scenes set these values."""
 
 
 def closed_container(settings: dict, rho_ref: float) -> dict:
