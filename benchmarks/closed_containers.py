@@ -22,7 +22,9 @@ import json
 import math
 import os
 import platform
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -32,7 +34,8 @@ from dcdc.sph import Simulator, SPHConfig
 from dcdc.sph.cases import G, LOCK_RHO, run, tank_system
 from dcdc.sph.reference import closed_container
 
-NECK_Y = 0.9  # the hourglass neck: half the 1.8 m cavity
+sys.path.insert(0, str(Path(__file__).parent))
+from exchange_convergence import NECK_Y  # noqa: E402  (the hourglass neck's height)
 
 
 def tank_settings() -> dict[str, dict]:

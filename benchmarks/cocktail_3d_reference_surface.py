@@ -8,21 +8,35 @@ glass under denser fluid (metrics.trapped_at_walls) at 5, 10 and 15 s; one JSON 
 
 Measured 2026-12-04 in benchmarks/cocktail_3d_reference_surface.json (docs/sph.md).
 """
-import sys, json, time, numpy as np
+import json
+import sys
+import time
+
+import numpy as np
+
 from dcdc import metrics
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
-over = json.loads(sys.argv[1])
-sc = get_scene("cocktail"); sy = sc.realize(3, 1.0)
-sim = Simulator(sy, SPHConfig.from_dict({**sc.solver, **over}))
-dens = np.array([p.density for p in sy.phases]); t0 = time.perf_counter()
-out = {"over": over, "n": sy.n_fluid}
-for f in range(int(round(15.0 / 0.02))):
-    sim.advance(0.02)
-    t = round((f + 1) * 0.02, 6)
-    if t in (5.0, 10.0, 15.0):
-        pur = metrics.neighbour_purity_per_phase(sy.x, sy.phase, 2.5 * sy.radius, len(dens))
-        tr = metrics.trapped_at_walls(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
-        out[f"{t:g}s"] = {"order": bool(metrics.density_order_ok(sy.x, sy.phase, dens)),
-                          "purity": pur.round(3).tolist(), "trapped": tr.round(4).tolist()}
-        print(json.dumps(out | {"wall": round(time.perf_counter() - t0)}), flush=True)
+
+
+def main() -> None:
+    over = json.loads(sys.argv[1]) if len(sys.argv) > 1 else {}
+    scene = get_scene("cocktail")
+    sy = scene.realize(3, 1.0)
+    sim = Simulator(sy, SPHConfig.from_dict({**scene.solver, **over}))
+    dens = np.array([p.density for p in sy.phases])
+    t0 = time.perf_counter()
+    out = {"over": over, "n": sy.n_fluid}
+    for f in range(int(round(scene.duration / 0.02))):
+        sim.advance(0.02)
+        t = round((f + 1) * 0.02, 6)
+        if t in (5.0, 10.0, 15.0):
+            pur = metrics.neighbour_purity_per_phase(sy.x, sy.phase, 2.5 * sy.radius, len(dens))
+            tr = metrics.trapped_at_walls(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
+            out[f"{t:g}s"] = {"order": bool(metrics.density_order_ok(sy.x, sy.phase, dens)),
+                              "purity": pur.round(3).tolist(), "trapped": tr.round(4).tolist()}
+            print(json.dumps(out | {"wall": round(time.perf_counter() - t0)}), flush=True)
+
+
+if __name__ == "__main__":
+    main()

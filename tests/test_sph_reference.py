@@ -118,7 +118,8 @@ def test_surface_level_finds_the_lowest_free_surface_particle():
     row's height), the particles at the floor and side walls are not at a surface; the same
     tank closed and filled up to its lid has no free surface (None)."""
     from dcdc.sph.neighbourhood import build
-    from dcdc.sph.reference import grad_psi, surface_level
+    from dcdc.sph.reference import surface_level
+    from dcdc.sph.terms import psi_gradient
     W, H, r = 0.4, 0.2, 0.01
     for closed, expect in ((False, H - r), (True, None)):  # the top row's centre
         sy = tank_system(2, r, (W, H), [((0, 0), (W, H), lambda p: np.zeros(len(p), int))],
@@ -126,7 +127,7 @@ def test_surface_level_finds_the_lowest_free_surface_particle():
         sim = Simulator(sy, SPHConfig())
         s = sim._state(None)
         nbh = build(s.x, sim._walls, sim.Vb, sim.h, sim.V0, sim.volume_map, sim._wall_edges)
-        level = surface_level(s.x, grad_psi(nbh.rs, nbh.G, nbh.Sb, sim.V0), sim.h, s.gravity)
+        level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, sim.V0), sim.h, s.gravity)
         if expect is None:
             assert level is None
         else:

@@ -589,7 +589,8 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     radii = [0.01] if quick else [0.007, 0.005, 0.0035]
     r_half = radii[0] if quick else 0.005  # where the damping is halved (cost: 3 runs each)
     closed = closed_container(cfg.to_dict(), LOCK_RHO[1])
-    res = {r: lock_exchange_ensemble(r, SPHConfig.from_dict(closed)) for r in radii}
+    closed_cfg = SPHConfig.from_dict(closed)
+    res = {r: lock_exchange_ensemble(r, closed_cfg) for r in radii}
     low = lock_exchange_ensemble(r_half, _halved_damping(closed))
     off = lock_exchange_run(r_half, SPHConfig.from_dict({**closed, "xsph": 0.0, "viscosity": 0.0}))
     band = lambda fr: bool(abs(fr / 0.5 - 1.0) <= 0.15)  # noqa: E731
@@ -605,8 +606,7 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
                  Row(c, "front travel from the middle [m]", d["reach"], f"< {LOCK_L / 2 - LOCK_H:.2f}",
                      "info", None),
                  Row(c, "Re = UH/ν of XSPH + viscosity (U = ½ sqrt(g'H))",
-                     _damping_reynolds(SPHConfig.from_dict(closed), r, d), "≳ 1000 for Fr ≈ ½",
-                     "info", None),
+                     _damping_reynolds(closed_cfg, r, d), "≳ 1000 for Fr ≈ ½", "info", None),
                  Row(c, "wall time [s], all starts", d["wall"], "-", "info", None)]
     c = f"lock exchange 1.5:1 2D (r={r_half * 1000:g} mm)"
     dh = low["heavy"] / res[r_half]["heavy"] - 1.0

@@ -99,8 +99,8 @@ class SPHConfig:
         reference holds wherever the fluid is covered up to L, in open scenes too: the
         surface's troughs, splashes and droplets below the bulk lower L instead of floating.
         ``reference_level`` must be unset; ``reference_density`` 0 (unset) then means 0.9 ×
-        the lightest phase's density (:data:`dcdc.sph.reference.AUTO_REFERENCE`). Off by default (docs/sph.md, "A level that follows
-        the surface").
+        the lightest phase's density (:data:`dcdc.sph.reference.AUTO_REFERENCE`). Off by
+        default (docs/sph.md, "A level that follows the surface").
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).

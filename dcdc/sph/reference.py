@@ -59,18 +59,14 @@ def surface_level(x: np.ndarray, grad_psi: np.ndarray, h: float, gravity: np.nda
                   margin: float = 0.0) -> float | None:
     """The height (along -g) of the lowest particle at a free surface, less ``margin``; None
     where there is none (a closed, filled container). A particle is at a free surface where
-    its neighbourhood is one-sided, |∇ψ| h > :data:`SURFACE_GRADIENT` (walls count in ψ,
-    ``reference_surface``; docs/sph.md, "A level that follows the surface"). Not ψ: DFSPH
+    its neighbourhood is one-sided, |∇ψ| h > :data:`SURFACE_GRADIENT` (``grad_psi`` from
+    :func:`dcdc.sph.terms.psi_gradient`, walls counted; ``reference_surface``; docs/sph.md,
+    "A level that follows the surface"). Not ψ: DFSPH
     packs a free surface's top rows to ψ ≈ 1 (measured, 2-D cocktail at 3 s: 27 of its 30
     highest particles at ψ ≥ 0.93, |∇ψ| h 0.6-1.7 there against a median of 0.09)."""
     up, _ = up_and_g(gravity)
     surf = np.sqrt((grad_psi ** 2).sum(1)) * h > SURFACE_GRADIENT
     return float((x[surf] @ up).min()) - margin if surf.any() else None
-
-
-def grad_psi(rs: np.ndarray, G: np.ndarray, Sb: np.ndarray, V0: float) -> np.ndarray:
-    """∇ψ_i = V0 Σ_j ∇W_ij + S_b,i (fluid neighbours in CSR ``rs``, self included, and walls)."""
-    return V0 * np.add.reduceat(G, rs[:-1], axis=0) + Sb
 
 
 def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref: float,

@@ -37,8 +37,9 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
-from .reference import AUTO_REFERENCE, fill_level, grad_psi, reference_pressure, surface_level
+from .reference import AUTO_REFERENCE, fill_level, reference_pressure, surface_level
 from .state import State
+from .terms import psi_gradient
 
 
 class Simulator:
@@ -118,7 +119,7 @@ class Simulator:
             if self._reference is not None and cfg.reference_surface:
                 # one diameter below the lowest surface particle: the surface's own rows, and
                 # the floor row under a thin surge, keep their full weight
-                level = surface_level(s.x, grad_psi(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
+                level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
                                       s.gravity, margin=2.0 * self.system.radius)
                 self._reference = s.reference = (self._reference[0], self._fill if level is None
                                                  else level)

@@ -149,6 +149,27 @@ def pressure_acceleration(p, rho0, rs, idx, G, Sb, V0, out, beta=1.0):
 
 
 @nb.njit(cache=True, parallel=True)
+def psi_gradient(rs, G, Sb, V0):
+    """∇ψ_i = V0 Σ_j ∇W_ij + S_b,i: the gradient of the compression, fluid neighbours in CSR
+    ``rs`` (self included, its gradient 0) and the walls' ``Sb``. Zero on a full rest lattice;
+    at a free surface it points into the fluid (|∇ψ| h ~ 1)."""
+    n, d = Sb.shape
+    out = np.empty((n, d))
+    for i in nb.prange(n):
+        a0 = a1 = a2 = 0.0
+        for e in range(rs[i], rs[i + 1]):
+            a0 += G[e, 0]
+            a1 += G[e, 1]
+            if d == 3:
+                a2 += G[e, 2]
+        out[i, 0] = V0 * a0 + Sb[i, 0]
+        out[i, 1] = V0 * a1 + Sb[i, 1]
+        if d == 3:
+            out[i, 2] = V0 * a2 + Sb[i, 2]
+    return out
+
+
+@nb.njit(cache=True)
 def background_acceleration(pb, rho0, rs, idx, G, Sb, V0):
     """The force of a uniform background pressure p_b (``SPHConfig.background_pressure``):
     the pressure force with p_i = p_j = p_b and the wall carrying the same pressure as the
@@ -159,20 +180,10 @@ def background_acceleration(pb, rho0, rs, idx, G, Sb, V0):
     p_b V0 Σ_i (ψ_i + Ψ_b,i) of static walls (conservative). Hu & Adams (2006) and Adami,
     Hu & Adams (2010) add it to keep a fluid whose capillary stress is tensile from
     clumping; it is not valid at a free surface (there ∇ψ ≠ 0 and it pushes outward)."""
-    n, d = Sb.shape
-    out = np.empty((n, d))
-    for i in nb.prange(n):
-        a0 = a1 = a2 = 0.0
-        for e in range(rs[i], rs[i + 1]):
-            a0 += G[e, 0]
-            a1 += G[e, 1]
-            if d == 3:
-                a2 += G[e, 2]
-        c = -2.0 * pb / rho0[i]
-        out[i, 0] = c * (V0 * a0 + Sb[i, 0])
-        out[i, 1] = c * (V0 * a1 + Sb[i, 1])
-        if d == 3:
-            out[i, 2] = c * (V0 * a2 + Sb[i, 2])
+    grad = psi_gradient(rs, G, Sb, V0)
+    out = np.empty_like(grad)
+    for i in range(grad.shape[0]):
+        out[i] = (-2.0 * pb / rho0[i]) * grad[i]
     return out
 
 
