@@ -26,6 +26,39 @@ def test_force_is_the_exact_gradient_of_q():
     assert np.all(a[x @ up > 0.6] == 0) and np.all(a[x @ up < 0.6] @ up > 0)
 
 
+def test_the_layered_reference_is_the_exact_gradient_of_its_q():
+    """reference_stratified: q of a slab profile is continuous, its force is -∇q/ρ0 (central
+    differences away from the slab faces), the profile is 0.9 × the lightest phase in each
+    slab, and below the deepest slab it continues the deepest's density."""
+    from dcdc.sph.reference import strata
+    rng = np.random.default_rng(1)
+    g = np.array([0.0, -9.81])
+    level, dz = 1.0, 0.05
+    # two layers: light (500) above 0.6 m, heavy (2000) below; one light particle at 0.3 m
+    y = np.concatenate([rng.uniform(0.6, 1.0, 200), rng.uniform(0.0, 0.6, 300), [0.32]])
+    rho0 = np.concatenate([np.full(200, 500.0), np.full(300, 2000.0), [500.0]])
+    x = np.c_[rng.uniform(0, 1, len(y)), y]
+    prof = strata(x, rho0, g, level, dz)
+    depth_mid = level - (np.arange(len(prof)) + 0.5) * dz
+    assert np.all(prof[depth_mid > 0.6] == 450.0)
+    assert np.all(prof[(depth_mid < 0.55) & (np.abs(depth_mid - 0.325) > 0.03)] == 1800.0)
+    assert prof[int((level - 0.32) / dz)] == 450.0
+    xs = np.c_[rng.uniform(0, 1, 400), rng.uniform(-0.2, 1.2, 400)]
+    rho_i = rng.uniform(500, 3000, 400)
+    off_face = np.abs(((level - xs[:, 1]) / dz) - np.round((level - xs[:, 1]) / dz)) > 1e-3
+    a = reference_acceleration(xs, g, rho_i, prof, level, dz)
+    eps = 1e-6
+    dq = (reference_pressure(xs + [0, eps], g, prof, level, dz)
+          - reference_pressure(xs - [0, eps], g, prof, level, dz)) / (2 * eps)
+    np.testing.assert_allclose(a[off_face, 1], -dq[off_face] / rho_i[off_face], rtol=1e-6)
+    faces = np.c_[np.zeros(len(prof)), level - np.arange(len(prof)) * dz]
+    np.testing.assert_allclose(reference_pressure(faces + [0, 1e-9], g, prof, level, dz),
+                               reference_pressure(faces - [0, 1e-9], g, prof, level, dz), atol=1e-3)
+    deep = np.array([[0.5, -0.5]])
+    assert reference_acceleration(deep, g, np.array([1000.0]), prof, level, dz)[0, 1] == \
+        pytest.approx(prof[-1] * 9.81 / 1000.0)
+
+
 def _closed_tank(r, phase_of, phases):
     W, H = 0.4, 0.3
     return tank_system(2, r, (W, H), [((0, 0), (W, H), phase_of)], phases, wall_height=H,
@@ -35,7 +68,7 @@ def _closed_tank(r, phase_of, phases):
 def test_reference_above_the_lightest_phase_is_an_error():
     sy = _closed_tank(0.02, lambda p: np.zeros(len(p), int), [Phase("w", 1000.0)])
     with pytest.raises(DcdcError, match="lightest"):
-        Simulator(sy, SPHConfig(reference_density=1200.0, reference_level=0.3))
+        Simulator(sy, SPHConfig(reference_density=1200.0, reference_surface=False))
 
 
 @pytest.mark.slow
@@ -45,7 +78,8 @@ def test_a_closed_filled_tank_at_rest_is_unchanged():
     out = {}
     for rho_ref in (0.0, 1000.0):
         sy = _closed_tank(0.0125, lambda p: np.zeros(len(p), int), [Phase("w", 1000.0)])
-        sim = Simulator(sy, SPHConfig(reference_density=rho_ref, reference_level=0.3))
+        sim = Simulator(sy, SPHConfig(reference_density=rho_ref, reference_level=0.3,
+                                          reference_surface=False))
         sim.run(1.0)
         y, p = sy.x[:, 1], sim.pressure()
         inner = (y > 0.1) & (y < 0.2) & (sy.x[:, 0] > 0.1) & (sy.x[:, 0] < 0.3)
@@ -67,7 +101,8 @@ def test_energy_budget_holds_with_the_reference():
     energy never exceeds the gravitational energy released."""
     sy = _closed_tank(0.01, lambda p: np.where(p[:, 1] > 0.15 + 0.03 * np.cos(2 * np.pi * p[:, 0] / 0.4),
                                              0, 1), [Phase("heavy", 2000.0), Phase("light", 1000.0)])
-    sim = Simulator(sy, SPHConfig(reference_density=1000.0, reference_level=0.3))
+    sim = Simulator(sy, SPHConfig(reference_density=1000.0, reference_level=0.3,
+                                  reference_surface=False))
     energy = EnergyBudget(sim)
     run(sim, 1.5, energy)
     row = energy.row("rt")
@@ -83,20 +118,21 @@ def test_the_level_defaults_to_the_fill_height():
                      [Phase("w", 1000.0)], wall_height=H, closed=True)
     top = sy.x[:, 1].max() + r
     assert abs(top - 0.2) < 1e-9
-    assert Simulator(sy, SPHConfig(reference_density=800.0))._reference == (800.0, top)
-    assert Simulator(sy, SPHConfig(reference_density=800.0, reference_level=0.5))._reference[1] == 0.5
+    assert Simulator(sy, SPHConfig(reference_density=800.0))._reference == (800.0, top, 0.0)
+    assert Simulator(sy, SPHConfig(reference_density=800.0, reference_level=0.5,
+                                   reference_surface=False))._reference[1] == 0.5
 
 
 def test_reference_level_settings():
     """None (unset) and numbers are accepted and survive a round trip; anything else is a
     one-line error."""
     assert SPHConfig.from_dict({}).reference_level is None
-    assert SPHConfig.from_dict({"reference_level": 1}).reference_level == 1.0
+    assert SPHConfig.from_dict({"reference_level": 1, "reference_surface": False}).reference_level == 1.0
     c = SPHConfig(reference_density=500.0)
     assert SPHConfig.from_dict(c.to_dict()) == c
     for bad in ("top", float("nan"), True):
         with pytest.raises(DcdcError, match="reference_level"):
-            SPHConfig.from_dict({"reference_level": bad})
+            SPHConfig.from_dict({"reference_level": bad, "reference_surface": False})
 
 
 def test_the_built_in_closed_scenes_carry_the_closed_settings():
@@ -135,33 +171,52 @@ def test_surface_level_finds_the_lowest_free_surface_particle():
 
 
 def test_reference_surface_settings():
-    """reference_surface sets the level itself (an explicit one is an error); without a
-    reference_density it takes 0.9 of the lightest phase's."""
-    with pytest.raises(DcdcError, match="reference_surface"):
-        SPHConfig(reference_surface=True, reference_level=1.0)
+    """reference_surface (the default) sets the level itself: an explicit one is an error
+    that names the switch; without a reference_density it takes 0.9 of the lightest phase's;
+    switched off with no reference_density there is no reference, and without gravity there
+    is none either (q = 0)."""
+    with pytest.raises(DcdcError, match="reference_surface = false"):
+        SPHConfig(reference_level=1.0)
+    assert SPHConfig().reference_surface is True
     sy = _closed_tank(0.02, lambda p: np.where(p[:, 1] < 0.15, 0, 1),
                       [Phase("heavy", 1500.0), Phase("light", 800.0)])
-    assert Simulator(sy, SPHConfig(reference_surface=True))._reference[0] == pytest.approx(720.0)
+    assert Simulator(sy, SPHConfig())._reference[0] == pytest.approx(720.0)
+    assert Simulator(sy, SPHConfig(reference_surface=False))._reference is None
+    with pytest.raises(DcdcError, match="reference_stratified"):
+        SPHConfig(reference_stratified=True, reference_density=500.0)
+    sy.gravity = np.zeros(2)
+    assert Simulator(sy, SPHConfig())._reference is None
 
 
 @pytest.mark.slow
 def test_an_open_tank_at_rest_is_unchanged_by_the_surface_reference():
     """With a free surface the level follows it, so q is a gauge there too: the quick
-    hydrostatic case (an open tank) passes all its checks with the option on."""
+    hydrostatic case (an open tank) passes all its checks with it (the default)."""
     from dcdc.sph.cases import CASES
-    rows = CASES["hydrostatic"](2, True, SPHConfig(reference_surface=True))
+    rows = CASES["hydrostatic"](2, True, SPHConfig())
     checks = [r for r in rows if r.passed is not None]
     assert checks and all(r.passed for r in checks), [(r.quantity, r.measured) for r in checks]
 
 
 @pytest.mark.slow
 def test_the_surface_reference_frees_the_light_fluid_at_the_side_wall():
-    """The full 2-D 2:1 collapse (512 particles, an open tank): with the defaults 2 light
-    particles (0.8 %) stay pressed against a side wall under the heavy layer; with the
-    surface-following reference none do, and the energy budget holds."""
+    """The full 2-D 2:1 collapse (512 particles, an open tank): without a reference 2 light
+    particles (0.8 %) stay pressed against a side wall under the heavy layer (measured); with
+    the surface-following reference, the default, none do, and the energy budget holds."""
     from dcdc.sph.cases import CASES
-    rows = CASES["side_by_side_2to1"](2, False, SPHConfig(reference_surface=True))
+    rows = CASES["side_by_side_2to1"](2, False, SPHConfig())
     checks = [r for r in rows if r.passed is not None]
     assert all(r.passed for r in checks), [(r.quantity, r.measured) for r in checks]
     left = next(r for r in rows if r.quantity == "light left below the interface")
     assert left.measured == 0.0
+
+
+@pytest.mark.slow
+def test_the_layered_reference_lets_a_deep_film_rise():
+    """The thin-film row's deep half at full 2-D resolution (r = 5 mm, 1 s): under 0.3 m of
+    twice as dense fluid the 2 cm film stays on the floor with the default reference (rise
+    −0.3 mm, measured), and rises with reference_stratified, whose slabs take out the heavy
+    layer's level (24 mm measured; docs/sph.md, "A reference that follows the layers")."""
+    from dcdc.sph.cases import FILM, film_rise
+    run = film_rise(2, 0.005, SPHConfig(reference_stratified=True), FILM["deep"])
+    assert run["rise"] > 0.01, run

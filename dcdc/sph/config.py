@@ -86,21 +86,29 @@ class SPHConfig:
         body force against gravity below L) instead of through the pair-sum pressure force;
         the solves then find p - q (:mod:`dcdc.sph.reference`). A gauge in the continuum;
         discretely the particle arrangement's stiffness then follows p - q, not the depth,
-        so thin layers deep under heavier fluid can move (row ``thin_film``). Exact in a
-        container without a free surface; with one, only while it stays at
-        ``reference_level``. At most the lightest phase's density. 0 = off (default).
-    reference_level: L [m], the height (along -g) where q = 0: for a closed, completely
-        filled container any height at or above the fluid (e.g. its lid); with a free
-        surface, its height at rest. Unset (None, the default) = the top of the fluid at the
-        start, the highest particle centre + r (a scene's fill height at any resolution).
-    reference_surface: (with ``reference_density``) L follows the fluid: at every substep it is
-        one particle diameter below the lowest free-surface particle (a one-sided
+        so light fluid does not stay under heavy fluid and thin layers deep under heavier
+        fluid can move. Exact in a container without a free surface; with one, only while
+        that surface stays at L. At most the lightest phase's density. 0 (default) = 0.9 ×
+        the lightest phase's density with ``reference_surface``
+        (:data:`dcdc.sph.reference.AUTO_REFERENCE`), off without it.
+    reference_level: L [m], the height (along -g) where q = 0, fixed (only with
+        ``reference_surface = false``): for a closed, completely filled container any height
+        at or above the fluid (e.g. its lid). Unset (None, the default) = the top of the
+        fluid at the start, the highest particle centre + r (a scene's fill height at any
+        resolution).
+    reference_surface: L follows the fluid (default on since 2026-12-04): at every substep
+        it is one particle diameter below the lowest free-surface particle (a one-sided
         neighbourhood, walls included: :func:`dcdc.sph.reference.surface_level`), so the
         reference holds wherever the fluid is covered up to L, in open scenes too: the
         surface's troughs, splashes and droplets below the bulk lower L instead of floating.
-        ``reference_level`` must be unset; ``reference_density`` 0 (unset) then means 0.9 ×
-        the lightest phase's density (:data:`dcdc.sph.reference.AUTO_REFERENCE`). Off by
-        default (docs/sph.md, "A level that follows the surface").
+        With no free surface (a closed, filled container) L stays at the fill height. No
+        effect without gravity. ``false`` with ``reference_density`` 0 is the solver without
+        any reference (docs/sph.md, "A level that follows the surface").
+    reference_stratified: (with ``reference_density`` unset) ρ_ref varies with height: at every
+        substep, 0.9 × the lightest phase present in each slab one particle diameter thick
+        below L (:func:`dcdc.sph.reference.strata`), so under a layer of heavy fluid the
+        reference takes out that layer's level, not just the lightest phase's share of it.
+        Off by default (docs/sph.md, "A reference that follows the layers").
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -137,7 +145,8 @@ class SPHConfig:
     background_pressure: float = 0.0
     reference_density: float = 0.0
     reference_level: float | None = None
-    reference_surface: bool = False
+    reference_surface: bool = True
+    reference_stratified: bool = False
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -164,7 +173,8 @@ class SPHConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise DcdcError(f"sph.{name} must be an integer >= 1 (got {v!r})")
-        for name in ("divergence_solve", "no_slip", "wall_buoyancy", "reference_surface"):
+        for name in ("divergence_solve", "no_slip", "wall_buoyancy", "reference_surface",
+                     "reference_stratified"):
             if not isinstance(getattr(self, name), bool):
                 raise DcdcError(f"sph.{name} must be true or false (got {getattr(self, name)!r})")
         if self.support <= 2.0:
@@ -174,8 +184,12 @@ class SPHConfig:
         if self.reference_level is not None:
             _check_number(self, "reference_level", lambda v: True, "[m]")
             if self.reference_surface is True:
-                raise DcdcError("sph.reference_surface sets the reference level itself: "
-                                "leave sph.reference_level unset")
+                raise DcdcError("sph.reference_level fixes the reference level, which "
+                                "sph.reference_surface (on by default) moves: set "
+                                "sph.reference_surface = false with it")
+        if self.reference_stratified is True and self.reference_density:
+            raise DcdcError("sph.reference_stratified takes the reference density from the "
+                            "phases at each height: leave sph.reference_density unset")
         if self.omega > 1.0:
             raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
         if self.dt_min > self.dt_max:

@@ -69,19 +69,52 @@ def surface_level(x: np.ndarray, grad_psi: np.ndarray, h: float, gravity: np.nda
     return float((x[surf] @ up).min()) - margin if surf.any() else None
 
 
-def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref: float,
-                       level: float) -> np.ndarray:
-    """q_i = ρ_ref |g| max(L - x_i·e, 0) [Pa]."""
+def strata(x: np.ndarray, rho0: np.ndarray, gravity: np.ndarray, level: float, dz: float,
+           share: float = AUTO_REFERENCE) -> np.ndarray:
+    """A reference density per height, ``reference_stratified``: ``share`` × the lightest
+    phase present in each slab of thickness ``dz`` below L (slab k spans depths
+    [k dz, (k+1) dz) under L; an empty slab 0). Every column filled with fluid from a height
+    up to L holds at each height a density at least its slab's, so q of this profile is at
+    most the hydrostatic pressure there and the solves' p' = p - q >= 0 stays reachable;
+    under one heavy phase it takes out the heavy phase's level, where a constant ρ_ref <=
+    the lightest density leaves most of it (row ``thin_film``; docs/sph.md, "A reference
+    that follows the layers")."""
+    up, _ = up_and_g(gravity)
+    depth = level - x @ up
+    below = depth > 0
+    k = (depth[below] / dz).astype(np.int64)
+    rho = np.full(int(k.max()) + 1 if below.any() else 1, np.inf)
+    np.minimum.at(rho, k, rho0[below])
+    rho[np.isinf(rho)] = 0.0
+    return share * rho
+
+
+def _profile(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float, dz: float):
+    """(e, |g|, depth under L, ρ_ref at each x, q at each x) for a constant ρ_ref (``dz`` 0)
+    or the slab profile of :func:`strata` (slabs below the deepest continue the deepest's
+    density)."""
     up, g = up_and_g(gravity)
-    return rho_ref * g * np.maximum(level - x @ up, 0.0)
+    depth = np.maximum(level - x @ up, 0.0)
+    if dz == 0.0:
+        return up, g, depth, np.full(len(x), float(rho_ref)), rho_ref * g * depth
+    rho_ref = np.asarray(rho_ref)
+    k = np.minimum((depth / dz).astype(np.int64), len(rho_ref) - 1)
+    above = np.concatenate(([0.0], np.cumsum(rho_ref * dz)))[k]  # the slabs over slab k
+    return up, g, depth, rho_ref[k], g * (above + rho_ref[k] * (depth - k * dz))
+
+
+def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float,
+                       dz: float = 0.0) -> np.ndarray:
+    """q_i = |g| ∫ ρ_ref over the depths from L down to x_i [Pa]: ρ_ref |g| max(L - x_i·e, 0)
+    for a constant ρ_ref; ``dz`` > 0: ρ_ref is the slab profile of :func:`strata`."""
+    return _profile(x, gravity, rho_ref, level, dz)[4]
 
 
 def reference_acceleration(x: np.ndarray, gravity: np.ndarray, rho0: np.ndarray,
-                           rho_ref: float, level: float) -> np.ndarray:
-    """-∇q/ρ0_i = (ρ_ref |g| / ρ0_i) e below L, 0 above [m/s²]."""
-    up, g = up_and_g(gravity)
-    below = (x @ up) < level
-    return (below * rho_ref * g / rho0)[:, None] * up[None, :]
+                           rho_ref, level: float, dz: float = 0.0) -> np.ndarray:
+    """-∇q/ρ0_i = (ρ_ref(x_i) |g| / ρ0_i) e below L, 0 above [m/s²]."""
+    up, g, depth, rho, _ = _profile(x, gravity, rho_ref, level, dz)
+    return ((depth > 0) * rho * g / rho0)[:, None] * up[None, :]
 
 
 CLOSED_DAMPING = {"xsph": 0.01, "viscosity": 1e-4}
@@ -94,6 +127,7 @@ lock exchange's heavy front by 3 % at 5 mm (docs/sph.md, "Closed containers"). T
 
 def closed_container(settings: dict, rho_ref: float) -> dict:
     """Solver ``settings`` for a closed container: the hydrostatic reference of density
-    ``rho_ref`` (the lightest phase's at most) at the fill height, and :data:`CLOSED_DAMPING`."""
+    ``rho_ref`` (the lightest phase's at most) fixed at the fill height, and
+    :data:`CLOSED_DAMPING`."""
     return {**settings, "reference_density": float(rho_ref), "reference_level": None,
-            **CLOSED_DAMPING}
+            "reference_surface": False, **CLOSED_DAMPING}

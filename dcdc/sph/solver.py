@@ -37,7 +37,7 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
-from .reference import AUTO_REFERENCE, fill_level, reference_pressure, surface_level
+from .reference import AUTO_REFERENCE, fill_level, reference_pressure, strata, surface_level
 from .state import State
 from .terms import psi_gradient
 
@@ -79,14 +79,16 @@ class Simulator:
         self._interface = None if C is None else (cfg.interfacial_model, C)
         self._reference = None
         lightest = min(ph.density for ph in system.phases)
-        rho_ref = cfg.reference_density or (AUTO_REFERENCE * lightest if cfg.reference_surface else 0.0)
-        if rho_ref > 0:
-            if rho_ref > lightest:
-                raise DcdcError(f"sph.reference_density ({cfg.reference_density:g}) exceeds the "
-                                f"lightest phase's density ({lightest:g} kg/m³)")
-            level = (fill_level(system.x[system.birth <= 0.0], system.gravity, r)
+        auto = cfg.reference_surface or cfg.reference_stratified
+        rho_ref = cfg.reference_density or (AUTO_REFERENCE * lightest if auto else 0.0)
+        if rho_ref > lightest:
+            raise DcdcError(f"sph.reference_density ({cfg.reference_density:g}) exceeds the "
+                            f"lightest phase's density ({lightest:g} kg/m³)")
+        if rho_ref > 0 and np.any(system.gravity):  # without gravity q = 0: nothing to take out
+            born = system.birth <= 0.0  # an emitter's particles count once they exist
+            level = (fill_level(system.x[born] if born.any() else system.x, system.gravity, r)
                      if cfg.reference_level is None else cfg.reference_level)
-            self._reference = (rho_ref, level)
+            self._reference = (rho_ref, level, 0.0)
             self._fill = level  # reference_surface: the level while no particle is at a surface
         # Brackbill et al.'s capillary bound is the CSF's; "pairwise" keeps its old steps
         self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
@@ -94,6 +96,21 @@ class Simulator:
         self.stats: dict = {}
         self.totals = {"frames": 0, "substeps": 0, "iterations": 0, "divergence_iterations": 0,
                        "max_density_error": 0.0, "removed": 0}
+
+    def _follow(self, s, nbh) -> tuple:
+        """This substep's reference (ρ_ref, L, slab thickness): L one diameter below the
+        lowest surface particle (``reference_surface``: the surface's own rows, and the floor
+        row under a thin surge, keep their full weight), ρ_ref per slab
+        (``reference_stratified``)."""
+        rho_ref, level, dz = self._reference
+        d = 2.0 * self.system.radius
+        if self.cfg.reference_surface:
+            level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
+                                  s.gravity, margin=d)
+            level = self._fill if level is None else level
+        if self.cfg.reference_stratified:
+            rho_ref, dz = strata(s.x, s.rho0, s.gravity, level, d), d
+        return rho_ref, level, dz
 
     # ------------------------------------------------------------------ stepping
     def advance(self, frame_dt: float) -> dict:
@@ -116,13 +133,8 @@ class Simulator:
                 self.time = t_end
                 break
             nbh = self._neighbourhood(s)
-            if self._reference is not None and cfg.reference_surface:
-                # one diameter below the lowest surface particle: the surface's own rows, and
-                # the floor row under a thin surge, keep their full weight
-                level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
-                                      s.gravity, margin=2.0 * self.system.radius)
-                self._reference = s.reference = (self._reference[0], self._fill if level is None
-                                                 else level)
+            if self._reference is not None:
+                self._reference = s.reference = self._follow(s, nbh)
             dt = self._choose_dt(s, t_end - self.time)
             if cfg.solver == "dfsph":
                 info = dfsph.substep(s, nbh, dt, cfg)

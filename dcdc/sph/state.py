@@ -27,9 +27,9 @@ class State:
     # SPHConfig.interface_damping off: the dynamic viscosity of unlike pairs (ρ0 ν_phase, no
     # artificial part), and XSPH within each phase only; None = the stabilisation acts on all
     mu_cross: np.ndarray | None = None
-    # SPHConfig.reference_density > 0: (ρ_ref, L) of the hydrostatic reference pressure
-    # (dcdc.sph.reference); None = off
-    reference: tuple[float, float] | None = None
+    # the hydrostatic reference pressure (dcdc.sph.reference): (ρ_ref, L, slab thickness),
+    # ρ_ref a number (thickness 0) or one per slab under L (reference_stratified); None = off
+    reference: tuple | None = None
 
     @property
     def dim(self) -> int:

@@ -455,6 +455,7 @@ def train(cfg: TrainConfig, out, resume: bool = False, device: str = "cpu",
     path = trainer.run()
     if trainer.dist.world > 1:
         import torch.distributed as dist
+        dist.barrier()  # rank 0 has written model.pt: no rank tears gloo down under another
         dist.destroy_process_group()
     return path
 
