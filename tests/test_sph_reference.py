@@ -149,6 +149,15 @@ def test_the_built_in_closed_scenes_carry_the_closed_settings():
         assert scene.check_solver() == SPHConfig.from_dict(closed_container({}, share * light)), name
 
 
+def test_closed_container_settings_override_the_reference_options():
+    """The lock-exchange case runs closed_container(cfg) whatever the given cfg: with
+    reference_stratified or reference_surface given, the result is still valid settings."""
+    from dcdc.sph.reference import closed_container
+    for given in (SPHConfig(reference_stratified=True), SPHConfig(reference_surface=True)):
+        c = SPHConfig.from_dict(closed_container(given.to_dict(), 1000.0))
+        assert (c.reference_density, c.reference_surface, c.reference_stratified) == (1000.0, False, False)
+
+
 def test_surface_level_finds_the_lowest_free_surface_particle():
     """An open tank on the rest lattice: its free surface is the top row (the level is the top
     row's height), the particles at the floor and side walls are not at a surface; the same

@@ -127,7 +127,7 @@ lock exchange's heavy front by 3 % at 5 mm (docs/sph.md, "Closed containers"). T
 
 def closed_container(settings: dict, rho_ref: float) -> dict:
     """Solver ``settings`` for a closed container: the hydrostatic reference of density
-    ``rho_ref`` (the lightest phase's at most) fixed at the fill height, and
-    :data:`CLOSED_DAMPING`."""
+    ``rho_ref`` (the lightest phase's at most, one for the whole container) fixed at the
+    fill height, and :data:`CLOSED_DAMPING`; the other reference options off."""
     return {**settings, "reference_density": float(rho_ref), "reference_level": None,
-            "reference_surface": False, **CLOSED_DAMPING}
+            "reference_surface": False, "reference_stratified": False, **CLOSED_DAMPING}
