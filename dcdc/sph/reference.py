@@ -89,31 +89,34 @@ def strata(x: np.ndarray, rho0: np.ndarray, gravity: np.ndarray, level: float, d
     return share * rho
 
 
-def _profile(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float, dz: float):
-    """(e, |g|, depth under L, ρ_ref at each x, q at each x) for a constant ρ_ref (``dz`` 0)
-    or the slab profile of :func:`strata` (slabs below the deepest continue the deepest's
-    density)."""
+def _depth(x: np.ndarray, gravity: np.ndarray, level: float):
+    """(e, |g|, the depth of each x under L, 0 above it)."""
     up, g = up_and_g(gravity)
-    depth = np.maximum(level - x @ up, 0.0)
-    if dz == 0.0:
-        return up, g, depth, np.full(len(x), float(rho_ref)), rho_ref * g * depth
-    rho_ref = np.asarray(rho_ref)
-    k = np.minimum((depth / dz).astype(np.int64), len(rho_ref) - 1)
-    above = np.concatenate(([0.0], np.cumsum(rho_ref * dz)))[k]  # the slabs over slab k
-    return up, g, depth, rho_ref[k], g * (above + rho_ref[k] * (depth - k * dz))
+    return up, g, np.maximum(level - x @ up, 0.0)
+
+
+def _slab(depth: np.ndarray, profile: np.ndarray, dz: float) -> np.ndarray:
+    """The slab of :func:`strata` each depth lies in (below the deepest: the deepest)."""
+    return np.minimum((depth / dz).astype(np.int64), len(profile) - 1)
 
 
 def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float,
                        dz: float = 0.0) -> np.ndarray:
     """q_i = |g| ∫ ρ_ref over the depths from L down to x_i [Pa]: ρ_ref |g| max(L - x_i·e, 0)
-    for a constant ρ_ref; ``dz`` > 0: ρ_ref is the slab profile of :func:`strata`."""
-    return _profile(x, gravity, rho_ref, level, dz)[4]
+    for a constant ρ_ref (``dz`` 0); ``dz`` > 0: ρ_ref is the slab profile of :func:`strata`."""
+    _, g, depth = _depth(x, gravity, level)
+    if dz == 0.0:
+        return rho_ref * g * depth
+    k = _slab(depth, rho_ref, dz)
+    above = np.concatenate(([0.0], np.cumsum(rho_ref * dz)))[k]  # the slabs over slab k
+    return g * (above + rho_ref[k] * (depth - k * dz))
 
 
 def reference_acceleration(x: np.ndarray, gravity: np.ndarray, rho0: np.ndarray,
                            rho_ref, level: float, dz: float = 0.0) -> np.ndarray:
     """-∇q/ρ0_i = (ρ_ref(x_i) |g| / ρ0_i) e below L, 0 above [m/s²]."""
-    up, g, depth, rho, _ = _profile(x, gravity, rho_ref, level, dz)
+    up, g, depth = _depth(x, gravity, level)
+    rho = rho_ref if dz == 0.0 else rho_ref[_slab(depth, rho_ref, dz)]
     return ((depth > 0) * rho * g / rho0)[:, None] * up[None, :]
 
 
