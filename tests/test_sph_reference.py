@@ -182,17 +182,27 @@ def test_surface_level_finds_the_lowest_free_surface_particle():
 def test_reference_surface_settings():
     """reference_surface (the default) sets the level itself: an explicit one is an error
     that names the switch; without a reference_density it takes 0.9 of the lightest phase's;
-    switched off with no reference_density there is no reference, and without gravity there
-    is none either (q = 0)."""
+    with both switches off and no reference_density there is no reference, and without
+    gravity there is none either (q = 0)."""
     with pytest.raises(DcdcError, match="reference_surface = false"):
         SPHConfig(reference_level=1.0)
     assert SPHConfig().reference_surface is True
     sy = _closed_tank(0.02, lambda p: np.where(p[:, 1] < 0.15, 0, 1),
                       [Phase("heavy", 1500.0), Phase("light", 800.0)])
     assert Simulator(sy, SPHConfig())._reference[0] == pytest.approx(720.0)
-    assert Simulator(sy, SPHConfig(reference_surface=False))._reference is None
-    with pytest.raises(DcdcError, match="reference_stratified"):
-        SPHConfig(reference_stratified=True, reference_density=500.0)
+    assert Simulator(sy, SPHConfig(reference_surface=False,
+                                   reference_stratified=False))._reference is None
+    # the layered reference is the default; an explicit reference_density is one ρ_ref for
+    # every height (the built-in closed scenes), and without reference_surface the layers
+    # hang from the fixed fill level
+    assert SPHConfig().reference_stratified is True
+    def follow(cfg):
+        sim = Simulator(sy, cfg)
+        s = sim._state(sim._active())
+        return sim, sim._follow(s, sim._neighbourhood(s))
+    assert follow(SPHConfig(reference_density=500.0, reference_surface=False))[1][::2] == (500.0, 0.0)
+    sim, (rho_ref, level, dz) = follow(SPHConfig(reference_surface=False))
+    assert level == sim._fill and dz == pytest.approx(0.04) and np.ndim(rho_ref) == 1
     sy.gravity = np.zeros(2)
     assert Simulator(sy, SPHConfig())._reference is None
 

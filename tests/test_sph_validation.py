@@ -87,10 +87,12 @@ def test_energy_budget_catches_created_energy():
 def test_thin_film_rise_is_measured():
     """The film case's measurement: a 2:1 film under a shallow layer rises by more than a
     few mm in 1 s; the same film with equal densities (no buoyancy) does not rise (it sinks
-    by ~r/4 with the floor row, docs/sph.md "The floor row sits close to the wall")."""
+    by ~r/4 with the floor row, docs/sph.md "The floor row sits close to the wall"). At
+    r = 5 mm, the film two particles thick: one particle thick (1 cm) it does not rise with
+    the default layered reference (docs/sph.md, "A reference that follows the layers")."""
     from dcdc.sph.cases import film_rise
-    up = film_rise(2, 0.01, SPHConfig(), 0.12)
-    neutral = film_rise(2, 0.01, SPHConfig(), 0.12, ratio=1.0)
+    up = film_rise(2, 0.005, SPHConfig(), 0.12)
+    neutral = film_rise(2, 0.005, SPHConfig(), 0.12, ratio=1.0)
     assert up["rise"] > 0.005 and up["left"] < 0.95, up
     assert neutral["rise"] < 0.001 and neutral["left"] > 0.95, neutral
 

@@ -90,7 +90,8 @@ class SPHConfig:
         fluid can move. Exact in a container without a free surface; with one, only while
         that surface stays at L. At most the lightest phase's density. 0 (default) = 0.9 ×
         the lightest phase's density with ``reference_surface``
-        (:data:`dcdc.sph.reference.AUTO_REFERENCE`), off without it.
+        (:data:`dcdc.sph.reference.AUTO_REFERENCE`) or per height with
+        ``reference_stratified`` (the defaults), off without both.
     reference_level: L [m], the height (along -g) where q = 0, fixed (only with
         ``reference_surface = false``): for a closed, completely filled container any height
         at or above the fluid (e.g. its lid). Unset (None, the default) = the top of the
@@ -102,13 +103,16 @@ class SPHConfig:
         reference holds wherever the fluid is covered up to L, in open scenes too: the
         surface's troughs, splashes and droplets below the bulk lower L instead of floating.
         With no free surface (a closed, filled container) L stays at the fill height. No
-        effect without gravity. ``false`` with ``reference_density`` 0 is the solver without
-        any reference (docs/sph.md, "A level that follows the surface").
-    reference_stratified: (with ``reference_density`` unset) ρ_ref varies with height: at every
+        effect without gravity. ``false`` together with ``reference_stratified = false`` and
+        ``reference_density`` 0 is the solver without any reference (docs/sph.md, "A level
+        that follows the surface").
+    reference_stratified: ρ_ref varies with height (default on since 2026-12-05): at every
         substep, 0.9 × the lightest phase present in each slab one particle diameter thick
         below L (:func:`dcdc.sph.reference.strata`), so under a layer of heavy fluid the
-        reference takes out that layer's level, not just the lightest phase's share of it.
-        Off by default (docs/sph.md, "A reference that follows the layers").
+        reference takes out that layer's level, not just the lightest phase's share of it
+        (docs/sph.md, "A reference that follows the layers"). An explicit
+        ``reference_density`` is one ρ_ref for every height and takes precedence (a saved
+        configuration holds both switches, so both together are not an error).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).
@@ -146,7 +150,7 @@ class SPHConfig:
     reference_density: float = 0.0
     reference_level: float | None = None
     reference_surface: bool = True
-    reference_stratified: bool = False
+    reference_stratified: bool = True
     sound_speed: float = 0.0
     stiffness_exponent: float = 7.0
     max_speed: float = 50.0
@@ -187,9 +191,6 @@ class SPHConfig:
                 raise DcdcError("sph.reference_level fixes the reference level, which "
                                 "sph.reference_surface (on by default) moves: set "
                                 "sph.reference_surface = false with it")
-        if self.reference_stratified is True and self.reference_density:
-            raise DcdcError("sph.reference_stratified takes the reference density from the "
-                            "phases at each height: leave sph.reference_density unset")
         if self.omega > 1.0:
             raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
         if self.dt_min > self.dt_max:

@@ -96,8 +96,10 @@ def _depth(x: np.ndarray, gravity: np.ndarray, level: float):
 
 
 def _slab(depth: np.ndarray, profile: np.ndarray, dz: float) -> np.ndarray:
-    """The slab of :func:`strata` each depth lies in (below the deepest: the deepest)."""
-    return np.minimum((depth / dz).astype(np.int64), len(profile) - 1)
+    """The slab of :func:`strata` each depth lies in (below the deepest: the deepest; a NaN
+    depth, a state gone NaN that the substep's check then reports, slab 0)."""
+    k = np.nan_to_num(np.floor(depth / dz), nan=0.0)
+    return np.minimum(k, len(profile) - 1).astype(np.int64)
 
 
 def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float,

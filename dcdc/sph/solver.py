@@ -108,7 +108,7 @@ class Simulator:
             level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
                                   s.gravity, margin=d)
             level = self._fill if level is None else level
-        if self.cfg.reference_stratified:
+        if self.cfg.reference_stratified and not self.cfg.reference_density:
             rho_ref, dz = strata(s.x, s.rho0, s.gravity, level, d), d
         return rho_ref, level, dz
 
@@ -160,6 +160,7 @@ class Simulator:
         if abs(self.time - t_end) < 1e-9:
             self.time = t_end
         self._p_frame = p_sum / frame_dt
+        self._p_frame[self.system.death <= self.time + TIME_EPS] = 0.0  # removed in this frame
         v = self.system.v[self.system.death > self.time + TIME_EPS]  # the removed are gone
         speed = np.sqrt((v ** 2).sum(1)).max() if len(v) else 0.0
         self.stats = {
