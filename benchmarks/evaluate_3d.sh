@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Scores of the shipped 3-D models against the SPH ground truth (docs/models.md):
-#   bash benchmarks/evaluate_3d.sh [DATA=datasets/3d]
+#   bash benchmarks/evaluate_3d.sh [DATA=datasets/3d_st]
 # Writes benchmarks/eval_3d_*.json and plots per trajectory in out/eval_3d/. Two
 # evaluations run at a time, one thread each (2 cores). The inertial baseline is the same
 # integrator with the learned correction switched off (every weight zero). Rollouts run
@@ -9,7 +9,7 @@
 # SHOWCASE_STEPS steps (default 500 = 10 s, the stability target); lock exchange and
 # dam break to the end of their SPH run.
 set -euo pipefail
-DATA=${1:-datasets/3d}
+DATA=${1:-datasets/3d_st}
 STEPS=${SHOWCASE_STEPS:-500}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 python benchmarks/inertial_model.py cconv3d out/inertial3d.pt
@@ -26,7 +26,7 @@ ev $M --data "$DATA/test_scenes" --trajectory cocktail_3d --trajectory hourglass
 ev $M $I --data "$DATA/test_scenes" --trajectory lock_exchange_3d --trajectory dam_break_3d \
     --json benchmarks/eval_3d_test_scenes.json --plots out/eval_3d/test_scenes &
 wait
-# the canyon's own SPH run is 5 s; a 10 s one (datasets/3d/canyon10, docs/datasets.md) for 500 steps
+# the canyon's own SPH run is 5 s; a 10 s one (DATA/canyon10, docs/datasets.md) for 500 steps
 ev $M --data "$DATA/canyon10" --steps "$STEPS" --json benchmarks/eval_3d_canyon10.json \
     --plots out/eval_3d/canyon10 &
 wait

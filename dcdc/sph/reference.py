@@ -25,9 +25,11 @@ at rest where that phase lies on top (measured, 2-D full 2:1 collapse with light
 750 breaks the energy budget, +446 %; ρ_ref 1000 leaves layer purity 0.70).
 
 Two ways of using it (docs/sph.md): closed, completely filled containers with L at the fill
-height and a tenth of the damping (:func:`closed_container`, the built-in lock exchange and
-hourglass), and ``reference_surface``, where L follows the lowest free-surface particle
-(:func:`surface_level`) so that no surface lies below it, in open scenes too.
+height, one ρ_ref and a tenth of the damping (:func:`closed_container`, the built-in lock
+exchange and hourglass), and the default for everything else: ``reference_surface``, where
+L follows the lowest free-surface particle (:func:`surface_level`) so that no surface lies
+below it, in open scenes too, with ``reference_stratified``, where ρ_ref follows the layers
+under L (:func:`strata`).
 """
 from __future__ import annotations
 
