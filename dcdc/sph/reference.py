@@ -81,8 +81,7 @@ def strata(x: np.ndarray, rho0: np.ndarray, gravity: np.ndarray, level: float, d
     under one heavy phase it takes out the heavy phase's level, where a constant ρ_ref <=
     the lightest density leaves most of it (row ``thin_film``; docs/sph.md, "A reference
     that follows the layers")."""
-    up, _ = up_and_g(gravity)
-    depth = level - x @ up
+    _, _, depth = _depth(x, gravity, level)
     below = depth > 0
     k = (depth[below] / dz).astype(np.int64)
     rho = np.full(int(k.max()) + 1 if below.any() else 1, np.inf)

@@ -159,9 +159,9 @@ class Simulator:
             n_removed += self._check(s, active)
         if abs(self.time - t_end) < 1e-9:
             self.time = t_end
-        self._p_frame = p_sum / frame_dt
-        self._p_frame[self.system.death <= self.time + TIME_EPS] = 0.0  # removed in this frame
-        v = self.system.v[self.system.death > self.time + TIME_EPS]  # the removed are gone
+        alive = self.system.death > self.time + TIME_EPS  # the removed are gone
+        self._p_frame = np.where(alive, p_sum / frame_dt, 0.0)  # 0 if removed in this frame
+        v = self.system.v[alive]
         speed = np.sqrt((v ** 2).sum(1)).max() if len(v) else 0.0
         self.stats = {
             "time": self.time,
