@@ -33,13 +33,11 @@ def run(overrides: dict, start: int) -> dict:
         sy.x += rng.normal(0.0, PERTURBATION, sy.x.shape) * (sy.birth <= 0)[:, None]
     t = time.time()
     Simulator(sy, SPHConfig.from_dict({**scene.solver, **overrides})).run(scene.data["duration"], 0.02)
-    dens = np.array([p.density for p in sy.phases])
-    return {"overrides": overrides, "start": start,
-            "order": bool(metrics.density_order_ok(sy.x, sy.phase, dens)),
-            "purity": np.round(metrics.neighbour_purity_per_phase(sy.x, sy.phase, 2.5 * sy.radius,
-                                                                  len(dens)), 4).tolist(),
-            "trapped": np.round(metrics.trapped_at_walls(sy.x, sy.phase, dens, sy.wall_x,
-                                                         sy.radius), 4).tolist(),
+    layers = metrics.layer_summary(sy.x, sy.phase, [p.density for p in sy.phases], sy.wall_x,
+                                   sy.radius)
+    return {"overrides": overrides, "start": start, "order": layers["order"],
+            "purity": np.round(layers["purity"], 4).tolist(),
+            "trapped": np.round(layers["trapped"], 4).tolist(),
             "phases": [p.name for p in sy.phases], "wall_s": round(time.time() - t, 1)}
 
 

@@ -6,7 +6,8 @@ glass under denser fluid (metrics.trapped_at_walls) at 5, 10 and 15 s; one JSON 
     python benchmarks/cocktail_3d_reference_surface.py '{}'
     python benchmarks/cocktail_3d_reference_surface.py '{"reference_surface": true}'
 
-Measured 2026-12-04 in benchmarks/cocktail_3d_reference_surface.json (docs/sph.md).
+Measured 2026-12-04 in benchmarks/cocktail_3d_reference_surface.json (docs/sph.md); session 21's
+default under the key "bodies_mixture_session21" (docs/sph.md, "A level per body of fluid").
 """
 import json
 import sys
@@ -31,10 +32,9 @@ def main() -> None:
         sim.advance(0.02)
         t = round((f + 1) * 0.02, 6)
         if t in (5.0, 10.0, 15.0):
-            pur = metrics.neighbour_purity_per_phase(sy.x, sy.phase, 2.5 * sy.radius, len(dens))
-            tr = metrics.trapped_at_walls(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
-            out[f"{t:g}s"] = {"order": bool(metrics.density_order_ok(sy.x, sy.phase, dens)),
-                              "purity": pur.round(3).tolist(), "trapped": tr.round(4).tolist()}
+            layers = metrics.layer_summary(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
+            out[f"{t:g}s"] = {"order": layers["order"], "purity": layers["purity"].round(3).tolist(),
+                              "trapped": layers["trapped"].round(4).tolist()}
             print(json.dumps(out | {"wall": round(time.perf_counter() - t0)}), flush=True)
 
 

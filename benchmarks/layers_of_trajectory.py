@@ -23,13 +23,12 @@ def main() -> None:
         frame = min(int(round(t / traj.frame_dt)), traj.n_frames - 1)
         sy = traj.system(frame)
         dens = np.array([p.density for p in sy.phases])
-        pur = metrics.neighbour_purity_per_phase(sy.x, sy.phase, 2.5 * sy.radius, len(dens))
-        tr = metrics.trapped_at_walls(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
+        layers = metrics.layer_summary(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
         pooled = metrics.pooled_heavy(sy.x, sy.phase, dens, sy.wall_x, sy.radius)
         print(json.dumps({"trajectory": name, "t": round(frame * traj.frame_dt, 6),
-                          "n": int(sy.n_fluid),
-                          "order": bool(metrics.density_order_ok(sy.x, sy.phase, dens)),
-                          "purity": pur.round(3).tolist(), "trapped": tr.round(4).tolist(),
+                          "n": int(sy.n_fluid), "order": layers["order"],
+                          "purity": layers["purity"].round(3).tolist(),
+                          "trapped": layers["trapped"].round(4).tolist(),
                           "pooled_inverted": [round(float(v), 3) for v in pooled]}))
 
 

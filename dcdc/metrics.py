@@ -160,6 +160,17 @@ def trapped_at_walls(x, phase, phase_densities, wall_x, radius: float) -> np.nda
                      for k in range(len(dens))])
 
 
+def layer_summary(x, phase, phase_densities, wall_x, radius: float) -> dict:
+    """A layered showcase's state in one call (the cocktail's checks, issue 8): ``order``
+    (:func:`density_order_ok`), ``purity`` per phase (:func:`neighbour_purity_per_phase`
+    within 2.5 r) and ``trapped``, each phase's share held at the walls under denser fluid
+    (:func:`trapped_at_walls`)."""
+    dens = np.asarray(phase_densities, dtype=np.float64)
+    return {"order": bool(density_order_ok(x, phase, dens)),
+            "purity": neighbour_purity_per_phase(x, phase, 2.5 * radius, len(dens)),
+            "trapped": trapped_at_walls(x, phase, dens, wall_x, radius)}
+
+
 def _column_search(x, points, half_width: float, up: int):
     """Pairs (x_i, points_j) in the same vertical column: horizontal distance <= half_width."""
     from .neighbors import radius_search

@@ -167,3 +167,31 @@ def test_pooled_heavy_on_a_basin():
     ph = np.ones(len(film), dtype=int)
     pooled, _ = M.pooled_heavy(film, ph, dens, wall, r)
     assert pooled == 0.0
+
+
+def test_layer_summary_sees_order_purity_and_light_fluid_held_at_walls():
+    """A walled 2-D box, heavy (phase 0) under light (phase 1): right order, no phase held at
+    the walls; one light particle swapped into the floor row is held (1 of the light phase),
+    the heavy one swapped to the top of the light layer is not (denser than all around it);
+    the layers inverted: wrong order, and nothing counted as held
+    (a whole layer is not a particle held at the wall: mostly its own phase around it)."""
+    from dcdc.metrics import layer_summary
+    r = 0.01
+    g = 2 * r * np.arange(20)
+    x = np.stack(np.meshgrid(g + 2 * r, g + 2 * r), -1).reshape(-1, 2)  # 20 x 20 fluid
+    walls = np.concatenate([np.c_[np.arange(-1, 23) * 2 * r, np.zeros(24)],
+                            np.c_[np.zeros(22), np.arange(1, 23) * 2 * r],
+                            np.c_[np.full(22, 42 * r), np.arange(1, 23) * 2 * r]])
+    phase = (x[:, 1] > 0.2).astype(int)
+    dens = [2000.0, 700.0]
+    ok = layer_summary(x, phase, dens, walls, r)
+    assert ok["order"] and np.all(ok["trapped"] == 0) and np.all(ok["purity"] > 0.8)
+    swapped = phase.copy()
+    floor = np.flatnonzero(np.isclose(x[:, 1], 2 * r) & np.isclose(x[:, 0], 0.2))
+    top = np.flatnonzero(np.isclose(x[:, 1], 40 * r) & np.isclose(x[:, 0], 0.2))
+    swapped[floor], swapped[top] = 1, 0
+    held = layer_summary(x, swapped, dens, walls, r)
+    assert held["order"]
+    np.testing.assert_allclose(held["trapped"], [0.0, 1 / 200])
+    bad = layer_summary(x, 1 - phase, dens, walls, r)
+    assert not bad["order"] and np.all(bad["trapped"] == 0)

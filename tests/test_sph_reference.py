@@ -28,8 +28,8 @@ def test_force_is_the_exact_gradient_of_q():
 
 def test_the_layered_reference_is_the_exact_gradient_of_its_q():
     """reference_stratified: q of a slab profile is continuous, its force is -∇q/ρ0 (central
-    differences away from the slab faces), the profile is 0.9 × the lightest phase in each
-    slab, and below the deepest slab it continues the deepest's density."""
+    differences away from the slab faces), the profile is 0.9 × the lowest density given in
+    each slab, and below the deepest slab it continues the deepest's density."""
     from dcdc.sph.reference import strata
     rng = np.random.default_rng(1)
     g = np.array([0.0, -9.81])
@@ -57,6 +57,30 @@ def test_the_layered_reference_is_the_exact_gradient_of_its_q():
     deep = np.array([[0.5, -0.5]])
     assert reference_acceleration(deep, g, np.array([1000.0]), prof, level, dz)[0, 1] == \
         pytest.approx(prof[-1] * 9.81 / 1000.0)
+
+
+def test_a_lone_light_particle_does_not_set_its_slabs_reference():
+    """The solver gives strata the neighbours' kernel mixture densities: a light particle alone in a
+    heavy lattice (at the pressure of the heavy fluid around it) leaves its slab's reference
+    far above its own density, while a light layer a kernel thick sets its slab to 0.9 × its
+    density (the oil held at the 3-D cocktail's glass lowered its slabs' reference before)."""
+    from dcdc.neighbors import radius_search
+    from dcdc.sph.reference import strata
+    from dcdc.sph.terms import edge_kernels, mixture_density
+    d, h = 0.02, 0.04
+    x = np.stack(np.meshgrid(d * np.arange(30), d * np.arange(30)), -1).reshape(-1, 2)
+    rho0 = np.where(x[:, 1] > 0.45, 500.0, 2000.0)  # light layer on top: rows 23-29
+    lone = np.flatnonzero(np.isclose(x[:, 0], 0.3) & np.isclose(x[:, 1], 0.2))
+    rho0[lone] = 500.0
+    nb = radius_search(x, h)
+    W, _ = edge_kernels(x, x, nb.row_splits, nb.index, h)
+    rho_bar = mixture_density(rho0, nb.row_splits, nb.index, W, True)  # as the solver
+    level, dz = 0.61, d  # rows at the slabs' middles
+    g = np.array([0.0, -9.81])
+    prof = strata(x, rho_bar, g, level, dz)
+    assert prof[int((level - 0.2) / dz)] > 0.9 * 1200.0
+    assert prof[int((level - 0.52) / dz)] == pytest.approx(450.0)
+    assert strata(x, rho0, g, level, dz)[int((level - 0.2) / dz)] == 450.0  # by ρ0: its own
 
 
 def _closed_tank(r, phase_of, phases):
@@ -158,25 +182,65 @@ def test_closed_container_settings_override_the_reference_options():
         assert (c.reference_density, c.reference_surface, c.reference_stratified) == (1000.0, False, False)
 
 
-def test_surface_level_finds_the_lowest_free_surface_particle():
-    """An open tank on the rest lattice: its free surface is the top row (the level is the top
-    row's height), the particles at the floor and side walls are not at a surface; the same
-    tank closed and filled up to its lid has no free surface (None)."""
+def test_surface_levels_find_the_lowest_free_surface_particle():
+    """An open tank on the rest lattice: its free surface is the top row (every particle's
+    level is the top row's height), the particles at the floor and side walls are not at a
+    surface; the same tank closed and filled up to its lid has no free surface (the fill
+    level given)."""
     from dcdc.sph.neighbourhood import build
-    from dcdc.sph.reference import surface_level
+    from dcdc.sph.reference import surface_levels
     from dcdc.sph.terms import psi_gradient
     W, H, r = 0.4, 0.2, 0.01
-    for closed, expect in ((False, H - r), (True, None)):  # the top row's centre
+    for closed, expect in ((False, H - r), (True, 7.0)):  # the top row's centre; the fill
         sy = tank_system(2, r, (W, H), [((0, 0), (W, H), lambda p: np.zeros(len(p), int))],
                          [Phase("w", 1000.0)], wall_height=H, closed=closed)
         sim = Simulator(sy, SPHConfig())
         s = sim._state(None)
         nbh = build(s.x, sim._walls, sim.Vb, sim.h, sim.V0, sim.volume_map, sim._wall_edges)
-        level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, sim.V0), sim.h, s.gravity)
-        if expect is None:
-            assert level is None
-        else:
-            assert abs(level - expect) < 1e-9, level
+        level = surface_levels(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, sim.V0), sim.h,
+                               s.gravity, nbh.rs, nbh.idx, fill=7.0)
+        np.testing.assert_allclose(level, expect, atol=1e-9)
+
+
+def test_bodies_are_the_connected_components_of_the_neighbour_graph():
+    """dcdc.sph.reference.bodies partitions random points as scipy's connected_components
+    does (hundreds of components, and one)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+    from dcdc.neighbors import radius_search
+    from dcdc.sph.reference import bodies
+    x = np.random.default_rng(0).uniform(0, 1, (3000, 3))
+    for radius in (0.06, 0.2):
+        nb = radius_search(x, radius)
+        count, body = bodies(nb.row_splits, nb.index)
+        graph = csr_matrix((np.ones(len(nb.index)), nb.index, nb.row_splits), shape=(3000, 3000))
+        count_sp, body_sp = connected_components(graph, directed=False)
+        assert count == count_sp and len(set(zip(body.tolist(), body_sp.tolist()))) == count
+    assert count == 1
+
+
+def test_each_body_of_fluid_gets_its_own_level():
+    """Three blocks of fluid more than a kernel support apart: each particle's level is the
+    lowest surface particle of its own block (less the margin), a block without a surface
+    particle gets the fill level: a puddle spilled beside a glass does not lower the glass's
+    level (the 3-D cocktail's reference was off from 2 s on before)."""
+    from dcdc.neighbors import radius_search
+    from dcdc.sph.reference import surface_levels
+    h, d = 0.04, 0.02
+    blocks = [(0.0, 0.0), (1.0, -0.5), (2.0, 0.3)]  # (x, y) of each block's lower left
+    x = np.concatenate([np.stack(np.meshgrid(x0 + d * np.arange(5), y0 + d * np.arange(4)),
+                                 -1).reshape(-1, 2) for x0, y0 in blocks])
+    body = np.repeat(np.arange(3), 20)
+    top = np.isclose(x[:, 1], np.array([y0 for _, y0 in blocks])[body] + 3 * d)
+    grad = np.zeros_like(x)
+    grad[top & (body < 2), 1] = 1.0 / h  # blocks 0 and 1 have a free surface on top
+    grad[(x[:, 0] > 1.01) & top & (body == 1), 1] = 0.0  # block 1: only its top-left one
+    nb = radius_search(x, h)
+    level = surface_levels(x, grad, h, np.array([0.0, -9.81]), nb.row_splits, nb.index,
+                           fill=5.0, margin=d)
+    np.testing.assert_allclose(level[body == 0], 3 * d - d)
+    np.testing.assert_allclose(level[body == 1], -0.5 + 3 * d - d)
+    np.testing.assert_allclose(level[body == 2], 5.0)
 
 
 def test_reference_surface_settings():

@@ -99,16 +99,19 @@ class SPHConfig:
         resolution).
     reference_surface: L follows the fluid (default on since 2026-12-04): at every substep
         it is one particle diameter below the lowest free-surface particle (a one-sided
-        neighbourhood, walls included: :func:`dcdc.sph.reference.surface_level`), so the
-        reference holds wherever the fluid is covered up to L, in open scenes too: the
-        surface's troughs, splashes and droplets below the bulk lower L instead of floating.
-        With no free surface (a closed, filled container) L stays at the fill height. No
+        neighbourhood, walls included) of each body of fluid, a connected component of the
+        neighbour graph (:func:`dcdc.sph.reference.surface_levels`; one level per body
+        since 2026-12-05), so the reference holds wherever the fluid is covered up to L, in
+        open scenes too: the surface's troughs, splashes and droplets still attached to the
+        bulk lower L instead of floating, and fluid spilled apart from it has a level of its
+        own. With no free surface (a closed, filled body) L stays at the fill height. No
         effect without gravity. ``false`` together with ``reference_stratified = false`` and
         ``reference_density`` 0 is the solver without any reference (docs/sph.md, "A level
         that follows the surface").
     reference_stratified: ρ_ref varies with height (default on since 2026-12-05): at every
-        substep, 0.9 × the lightest phase present in each slab one particle diameter thick
-        below L (:func:`dcdc.sph.reference.strata`), so under a layer of heavy fluid the
+        substep, 0.9 × the lowest kernel mixture density of the neighbours, ρ̄ = Σ W ρ0 / Σ W (since
+        2026-12-05; before, the lightest phase present) in each slab one particle diameter
+        thick below L (:func:`dcdc.sph.reference.strata`), so under a layer of heavy fluid the
         reference takes out that layer's level, not just the lightest phase's share of it
         (docs/sph.md, "A reference that follows the layers"). An explicit
         ``reference_density`` is one ρ_ref for every height and takes precedence (a saved

@@ -37,9 +37,9 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
-from .reference import AUTO_REFERENCE, fill_level, reference_pressure, strata, surface_level
+from .reference import AUTO_REFERENCE, fill_level, reference_pressure, strata, surface_levels
 from .state import State
-from .terms import psi_gradient
+from .terms import mixture_density, psi_gradient
 
 
 class Simulator:
@@ -99,17 +99,17 @@ class Simulator:
 
     def _follow(self, s, nbh) -> tuple:
         """This substep's reference (ρ_ref, L, slab thickness): L one diameter below the
-        lowest surface particle (``reference_surface``: the surface's own rows, and the floor
-        row under a thin surge, keep their full weight), ρ_ref per slab
-        (``reference_stratified``)."""
+        lowest surface particle of each particle's body of fluid (``reference_surface``: the
+        surface's own rows, and the floor row under a thin surge, keep their full weight), ρ_ref
+        per slab from the neighbours' kernel mixture densities (``reference_stratified``)."""
         rho_ref, level, dz = self._reference
         d = 2.0 * self.system.radius
         if self.cfg.reference_surface:
-            level = surface_level(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
-                                  s.gravity, margin=d)
-            level = self._fill if level is None else level
+            level = surface_levels(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
+                                   s.gravity, nbh.rs, nbh.idx, self._fill, margin=d)
         if self.cfg.reference_stratified and not self.cfg.reference_density:
-            rho_ref, dz = strata(s.x, s.rho0, s.gravity, level, d), d
+            rho_bar = mixture_density(s.rho0, nbh.rs, nbh.idx, nbh.W, True)  # others only
+            rho_ref, dz = strata(s.x, rho_bar, s.gravity, level, d), d
         return rho_ref, level, dz
 
     # ------------------------------------------------------------------ stepping

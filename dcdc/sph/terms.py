@@ -372,15 +372,18 @@ def xsph_velocity_change(v, rho0, phase, same_phase_only, rs, idx, W, V0, eps):
 
 
 @nb.njit(cache=True, parallel=True)
-def mixture_density(rho0, rs, idx, W):
-    """Kernel-weighted mean rest density of the fluid around each particle (self included),
-    ρ̄_i = Σ_j W_ij ρ0_j / Σ_j W_ij: the density of the local hydrostatic column."""
+def mixture_density(rho0, rs, idx, W, exclude_self=False):
+    """Kernel-weighted mean rest density of the fluid around each particle (self included,
+    or not with ``exclude_self``), ρ̄_i = Σ_j W_ij ρ0_j / Σ_j W_ij: the density of the local
+    hydrostatic column (a particle without neighbours: its own)."""
     n = len(rs) - 1
     out = np.empty(n)
     for i in nb.prange(n):
         s = 0.0
         w = 0.0
         for e in range(rs[i], rs[i + 1]):
+            if exclude_self and idx[e] == i:
+                continue
             s += W[e] * rho0[idx[e]]
             w += W[e]
         out[i] = s / w if w > 0.0 else rho0[i]
