@@ -79,8 +79,8 @@ def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
     rows = [ln.split() for ln in stdout.splitlines() if ln.split()[:1] in (["light"], ["heavy"])]
     assert len(rows) == 4  # the SPH table's two rows and the model's two
     heights = {r[0]: [float(v) for v in r[1:]] for r in rows[2:]}
-    for sph, mine, rel in heights.values():
-        assert abs(rel - abs(mine - sph) / sph) < 2e-3
+    for sph, mine, rel in heights.values():  # printed to 3 decimals: within their rounding
+        assert abs(rel - abs(mine - sph) / sph) <= 0.001 / sph + 0.0005 + 1e-9
     assert "largest COM height error" in stdout and "final order heavy-below: yes" in stdout
     assert (out / "lock_exchange_2d_dcdc.h5").is_file()
     assert (out / "lock_exchange_2d_dcdc_compare.png").stat().st_size > 10_000
