@@ -60,10 +60,11 @@ def test_the_layered_reference_is_the_exact_gradient_of_its_q():
 
 
 def test_a_lone_light_particle_does_not_set_its_slabs_reference():
-    """The solver gives strata the neighbours' kernel mixture densities: a light particle alone in a
-    heavy lattice (at the pressure of the heavy fluid around it) leaves its slab's reference
-    far above its own density, while a light layer a kernel thick sets its slab to 0.9 × its
-    density (the oil held at the 3-D cocktail's glass lowered its slabs' reference before)."""
+    """The solver gives strata the neighbours' kernel mixture densities: a light particle
+    alone in a heavy lattice (at the pressure of the heavy fluid around it) leaves its slab's
+    reference far above its own density, while a light layer a kernel thick sets its slab to
+    0.9 × its density (the oil held at the 3-D cocktail's glass lowered its slabs' reference
+    before)."""
     from dcdc.neighbors import radius_search
     from dcdc.sph.reference import strata
     from dcdc.sph.terms import edge_kernels, mixture_density
@@ -74,7 +75,7 @@ def test_a_lone_light_particle_does_not_set_its_slabs_reference():
     rho0[lone] = 500.0
     nb = radius_search(x, h)
     W, _ = edge_kernels(x, x, nb.row_splits, nb.index, h)
-    rho_bar = mixture_density(rho0, nb.row_splits, nb.index, W, True)  # as the solver
+    rho_bar = mixture_density(rho0, nb.row_splits, nb.index, W, exclude_self=True)  # as the solver
     level, dz = 0.61, d  # rows at the slabs' middles
     g = np.array([0.0, -9.81])
     prof = strata(x, rho_bar, g, level, dz)

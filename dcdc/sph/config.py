@@ -109,13 +109,13 @@ class SPHConfig:
         ``reference_density`` 0 is the solver without any reference (docs/sph.md, "A level
         that follows the surface").
     reference_stratified: ρ_ref varies with height (default on since 2026-12-05): at every
-        substep, 0.9 × the lowest kernel mixture density of the neighbours, ρ̄ = Σ W ρ0 / Σ W (since
-        2026-12-05; before, the lightest phase present) in each slab one particle diameter
-        thick below L (:func:`dcdc.sph.reference.strata`), so under a layer of heavy fluid the
-        reference takes out that layer's level, not just the lightest phase's share of it
-        (docs/sph.md, "A reference that follows the layers"). An explicit
-        ``reference_density`` is one ρ_ref for every height and takes precedence (a saved
-        configuration holds both switches, so both together are not an error).
+        substep, 0.9 × the lowest kernel mixture density of the neighbours,
+        ρ̄ = Σ W ρ0 / Σ W (since 2026-12-05; before, the lightest phase present), in each
+        slab one particle diameter thick below L (:func:`dcdc.sph.reference.strata`), so
+        under a layer of heavy fluid the reference takes out that layer's level, not just the
+        lightest phase's share of it (docs/sph.md, "A reference that follows the layers").
+        An explicit ``reference_density`` is one ρ_ref for every height and takes precedence
+        (a saved configuration holds both switches, so both together are not an error).
     sound_speed: WCSPH speed of sound [m/s] (0 = 10·sqrt(2 g H) of the initial fluid height).
     stiffness_exponent: WCSPH Tait exponent.
     max_speed: a speed above this [m/s] counts as an explosion (SimulationDiverged).

@@ -27,9 +27,9 @@ at rest where that phase lies on top (measured, 2-D full 2:1 collapse with light
 Two ways of using it (docs/sph.md): closed, completely filled containers with L at the fill
 height, one ρ_ref and a tenth of the damping (:func:`closed_container`, the built-in lock
 exchange and hourglass), and the default for everything else: ``reference_surface``, where
-L follows the lowest free-surface particle of each body of fluid (:func:`surface_levels`) so that no surface lies
-below it, in open scenes too, with ``reference_stratified``, where ρ_ref follows the layers
-under L (:func:`strata`).
+L follows the lowest free-surface particle of each body of fluid (:func:`surface_levels`)
+so that no surface lies below it, in open scenes too, with ``reference_stratified``, where
+ρ_ref follows the layers under L (:func:`strata`).
 """
 from __future__ import annotations
 
@@ -120,9 +120,10 @@ def strata(x: np.ndarray, rho: np.ndarray, gravity: np.ndarray, level, dz: float
 
     ``rho`` is the local column density the solver passes, the kernel mixture density of
     the neighbours, ρ̄_i = Σ_{j≠i} W_ij ρ0_j / Σ_{j≠i} W_ij
-    (:func:`dcdc.sph.terms.mixture_density`), not the particles' own ρ0: a column of fluid at least a kernel wide filled from a height up to L
-    holds at each height a density at least its slab's, so q of this profile is at most the
-    hydrostatic pressure there and the solves' p' = p - q >= 0 stays reachable; a lone light
+    (:func:`dcdc.sph.terms.mixture_density`), not the particles' own ρ0: a column of fluid
+    at least a kernel wide filled from a height up to L holds at each height a density at
+    least its slab's, so q of this profile is at most the hydrostatic pressure there and the
+    solves' p' = p - q >= 0 stays reachable; a lone light
     particle or a one-particle film of it inside denser fluid, whose pressure is the denser
     fluid's, no longer sets its slab's reference to its own density (with ρ0 the oil held at
     the 3-D cocktail's glass lowered the reference of every slab it lay in and so kept

@@ -108,7 +108,7 @@ class Simulator:
             level = surface_levels(s.x, psi_gradient(nbh.rs, nbh.G, nbh.Sb, self.V0), self.h,
                                    s.gravity, nbh.rs, nbh.idx, self._fill, margin=d)
         if self.cfg.reference_stratified and not self.cfg.reference_density:
-            rho_bar = mixture_density(s.rho0, nbh.rs, nbh.idx, nbh.W, True)  # others only
+            rho_bar = mixture_density(s.rho0, nbh.rs, nbh.idx, nbh.W, exclude_self=True)
             rho_ref, dz = strata(s.x, rho_bar, s.gravity, level, d), d
         return rho_ref, level, dz
 
