@@ -1,0 +1,45 @@
+"""Is the 2-D thin-film ratio's change between sessions 20 and 21 (0.47 -> 0.39) noise? The
+full 2-D `thin_film` row (r = 5 mm, defaults) from its lattice start and from starts
+perturbed by 0.1 mm (Gaussian, seeds 1, 2, ...): rise under 0.3 m and under 0.12 m of 2:1
+heavier fluid after 1 s, and their ratio (docs/sph.md, "Why light fluid stays under heavy
+fluid"; the row asks 0.67-1.5).
+
+    python benchmarks/thin_film_starts.py 0 1 2 >> benchmarks/thin_film_starts.jsonl
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import numpy as np
+
+from dcdc.sph import SPHConfig, cases
+
+PERTURBATION = 1e-4  # [m]
+
+
+def main(argv: list[str]) -> None:
+    tank = cases.tank_system
+    for start in [int(a) for a in argv] or [0]:
+        rng = np.random.default_rng(start)
+
+        def perturbed(*args, **kwargs):
+            sy = tank(*args, **kwargs)
+            if start:
+                sy.x += rng.normal(0.0, PERTURBATION, sy.x.shape)
+            return sy
+        cases.tank_system = perturbed
+        t = time.time()
+        runs = cases.film_pair(2, 0.005, SPHConfig())
+        print(json.dumps({"start": start, "ratio": round(runs["ratio"], 3),
+                          "rise_deep_mm": round(1e3 * runs["deep"]["rise"], 1),
+                          "rise_shallow_mm": round(1e3 * runs["shallow"]["rise"], 1),
+                          "left_deep": round(runs["deep"]["left"], 3),
+                          "left_shallow": round(runs["shallow"]["left"], 3),
+                          "wall_s": round(time.time() - t, 1)}), flush=True)
+    cases.tank_system = tank
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
