@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# `antisym2d` before and after its fine-tuning on the current teacher's 2-D data
+# (docs/models.md, "antisym2d stage 3"), with the wall contact, on the sets of
+# evaluate_2d.sh:   bash benchmarks/evaluate_antisym_2d.sh [DATA=datasets/2d_bd]
+# Writes benchmarks/eval_2d_{test_scenes,canyon10,valid,test_ratio}_antisym_bd.json.
+set -euo pipefail
+DATA=${1:-datasets/2d_bd}
+export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
+M="--model benchmarks/models/antisym2d_s1.pt --model benchmarks/models/antisym2d_s3.pt"
+ev() { dcdc evaluate --stride 10 --overwrite $M "$@" > /dev/null; }
+ev --data "$DATA/test_scenes" --json benchmarks/eval_2d_test_scenes_antisym_bd.json &
+ev --data "$DATA/canyon10" --json benchmarks/eval_2d_canyon10_antisym_bd.json &
+wait
+ev --data "$DATA/valid" --json benchmarks/eval_2d_valid_antisym_bd.json &
+ev --data "$DATA/test_ratio" --json benchmarks/eval_2d_test_ratio_antisym_bd.json &
+wait
+python benchmarks/eval_tables.py benchmarks/eval_2d_*_antisym_bd.json
