@@ -8,7 +8,9 @@ fluid (:func:`dcdc.metrics.trapped_at_walls`) at 11-15 s.
 Variants: the defaults; interfacial tension off; XSPH and artificial viscosity off; the
 layered reference taking 0.97 and 1.0 of each slab's density (default 0.9); a balanced wall
 (``wall_contact_support`` 2); the "csf" tension model; the density solve's tolerance
-10× and 100× looser (the second with the divergence solve's at 1 %).
+10× and 100× looser (the second with the divergence solve's at 1 %); particle shifting
+after every substep, δx_i = −A h² ∇ψ_i on particles with ψ_i ≥ 0.98 (Lind et al. 2012, J.
+Comput. Phys. 231, on the solver's own ψ; positions only, the probe of a fix), A = 0.01, 0.05.
 """
 from __future__ import annotations
 
@@ -20,11 +22,13 @@ import time
 
 import numpy as np
 
+import dcdc.sph.dfsph as dfsph
 import dcdc.sph.solver as solver
 from dcdc import metrics
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
 from dcdc.sph.reference import strata
+from dcdc.sph.terms import psi_gradient
 
 RESOLUTION = 2.0  # the demo's
 VARIANTS = {  # name: (solver overrides, share of each slab's density in the reference)
@@ -38,7 +42,20 @@ VARIANTS = {  # name: (solver overrides, share of each slab's density in the ref
     "density_tolerance 1e-3": ({"density_tolerance": 1e-3}, None),
     "density_tolerance 1e-2, divergence_tolerance 1e-2": (
         {"density_tolerance": 1e-2, "divergence_tolerance": 1e-2}, None),
+    "shifting A 0.01": ({}, None),
+    "shifting A 0.05": ({}, None),
 }
+SUBSTEP = dfsph.substep
+
+
+def shifting(a: float):
+    """dfsph.substep followed by the shift δx = −a h² ∇ψ on particles with ψ ≥ 0.98."""
+    def substep(s, nbh, dt, cfg):
+        info = SUBSTEP(s, nbh, dt, cfg)
+        grad = psi_gradient(nbh.rs, nbh.G, nbh.Sb, s.V0)
+        s.x -= a * s.h * s.h * grad * (nbh.psi >= 0.98)[:, None]
+        return info
+    return substep
 
 
 def trapped(sy) -> list[float]:
@@ -58,6 +75,7 @@ def main() -> None:
         if len(sys.argv) > 1 and name not in sys.argv[1:]:
             continue
         solver.strata = strata if share is None else functools.partial(strata, share=share)
+        dfsph.substep = shifting(float(name.split()[-1])) if name.startswith("shifting") else SUBSTEP
         s2 = copy.deepcopy(sy)
         sim = Simulator(s2, SPHConfig.from_dict({**scene.solver, **overrides}))
         t, out = time.time(), {}
@@ -66,7 +84,7 @@ def main() -> None:
             out[k] = trapped(s2)
         print(json.dumps({"variant": name, "trapped": out, "wall_s": round(time.time() - t, 1)}),
               flush=True)
-    solver.strata = strata
+    solver.strata, dfsph.substep = strata, SUBSTEP
 
 
 if __name__ == "__main__":
