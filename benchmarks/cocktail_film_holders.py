@@ -31,19 +31,19 @@ from dcdc.sph.reference import strata
 from dcdc.sph.terms import psi_gradient
 
 RESOLUTION = 2.0  # the demo's
-VARIANTS = {  # name: (solver overrides, share of each slab's density in the reference)
-    "defaults": ({}, None),
-    "no interfacial tension": ({"interfacial_tension": {}}, None),
-    "xsph 0, viscosity 0": ({"xsph": 0.0, "viscosity": 0.0}, None),
-    "reference share 0.97": ({}, 0.97),
-    "reference share 1.0": ({}, 1.0),
-    "wall_contact_support 2": ({"wall_contact_support": 2.0}, None),
-    "interfacial_model csf": ({"interfacial_model": "csf"}, None),
-    "density_tolerance 1e-3": ({"density_tolerance": 1e-3}, None),
+VARIANTS = {  # name: (solver overrides, share of each slab's density in the reference, shift A)
+    "defaults": ({}, None, 0.0),
+    "no interfacial tension": ({"interfacial_tension": {}}, None, 0.0),
+    "xsph 0, viscosity 0": ({"xsph": 0.0, "viscosity": 0.0}, None, 0.0),
+    "reference share 0.97": ({}, 0.97, 0.0),
+    "reference share 1.0": ({}, 1.0, 0.0),
+    "wall_contact_support 2": ({"wall_contact_support": 2.0}, None, 0.0),
+    "interfacial_model csf": ({"interfacial_model": "csf"}, None, 0.0),
+    "density_tolerance 1e-3": ({"density_tolerance": 1e-3}, None, 0.0),
     "density_tolerance 1e-2, divergence_tolerance 1e-2": (
-        {"density_tolerance": 1e-2, "divergence_tolerance": 1e-2}, None),
-    "shifting A 0.01": ({}, None),
-    "shifting A 0.05": ({}, None),
+        {"density_tolerance": 1e-2, "divergence_tolerance": 1e-2}, None, 0.0),
+    "shifting A 0.01": ({}, None, 0.01),
+    "shifting A 0.05": ({}, None, 0.05),
 }
 SUBSTEP = dfsph.substep
 
@@ -71,11 +71,11 @@ def main() -> None:
     Simulator(sy, SPHConfig.from_dict(scene.solver)).run(10.0, 0.02)
     print(json.dumps({"variant": "state at 10 s", "phases": [p.name for p in sy.phases],
                       "trapped": trapped(sy)}), flush=True)
-    for name, (overrides, share) in VARIANTS.items():
+    for name, (overrides, share, shift) in VARIANTS.items():
         if len(sys.argv) > 1 and name not in sys.argv[1:]:
             continue
         solver.strata = strata if share is None else functools.partial(strata, share=share)
-        dfsph.substep = shifting(float(name.split()[-1])) if name.startswith("shifting") else SUBSTEP
+        dfsph.substep = shifting(shift) if shift > 0 else SUBSTEP
         s2 = copy.deepcopy(sy)
         sim = Simulator(s2, SPHConfig.from_dict({**scene.solver, **overrides}))
         t, out = time.time(), {}

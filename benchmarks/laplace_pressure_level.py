@@ -1,6 +1,7 @@
 """Does the interfacial tension's pressure jump depend on the pressure level? (docs/sph.md,
 "The Laplace jump under a hydrostatic head"). The `laplace` case of `dcdc validate-sph`
-(2-D quick: r = 1 cm, R = 9 cm, σ = 10 N/m, equal densities, closed 0.4 m box, 1.5 s) with
+(2-D quick: r = 1 cm, R = 9 cm, σ = 10 N/m, equal densities, closed 0.4 m box, 1.5 s;
+:func:`dcdc.sph.cases.laplace_drop`) with
 gravity g switched on: over the last 0.5 s, the drop's pressure within R/2 of its centre
 minus a least-squares linear fit (in height) of the ambient's beyond R + h and h from the
 walls; the same run with σ = 0 from the same start is subtracted ("diff"), which removes
@@ -11,14 +12,12 @@ the hydrostatic discretisation error the fit leaves. Young-Laplace: diff = 1.
 from __future__ import annotations
 
 import json
-import math
 import time
 
 import numpy as np
 
-from dcdc.particles import Phase
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import run, tank_system
+from dcdc.sph.cases import drop_radius, laplace_box, laplace_drop, max_radius_ratio, run
 
 NO_REFERENCE = {"reference_surface": False, "reference_stratified": False}
 RUNS = [  # (model, g [m/s²], solver overrides)
@@ -26,23 +25,20 @@ RUNS = [  # (model, g [m/s²], solver overrides)
     ("pairwise", 9.81, NO_REFERENCE),
     ("csf", 9.81, {}), ("csf", 30.0, {}), ("csf", 9.81, NO_REFERENCE), ("csf", 30.0, NO_REFERENCE),
 ]
-SIGMA, R_PARTICLE, W, T = 10.0, 0.01, 0.4, 1.5
+SIGMA, R_PARTICLE, T = 10.0, 0.01, 1.5
 
 
 def jump(model: str, g: float, sigma: float, overrides: dict) -> tuple[float, float, float]:
     """(mean drop pressure above the ambient's linear fit [Pa], R [m], max radius / R)."""
-    half = 0.5 * math.sqrt(math.pi) * 0.1
-    inside = lambda p: np.where((np.abs(p - W / 2) < half).all(1), 1, 0)  # noqa: E731
-    phases = [Phase("ambient", 1000.0), Phase("drop", 1000.0)]
-    sy = tank_system(2, R_PARTICLE, [W, W], [(np.zeros(3), [W, W, 0], inside)], phases,
-                     wall_height=W, name="laplace", closed=True)
+    W = laplace_box(2)
+    sy = laplace_drop(2, R_PARTICLE)
     sy.gravity[:] = [0.0, -g]
     settings = {"interfacial_model": model, **overrides}
     if sigma > 0:
         settings["interfacial_tension"] = {"ambient/drop": sigma}
     sim = Simulator(sy, SPHConfig.from_dict(settings))
     drop = sy.phase == 1
-    R = math.sqrt(drop.sum() * sim.V0 / math.pi)
+    R = drop_radius(int(drop.sum()), sim.V0, 2)
     samples = []
 
     def sample(s, frame):
@@ -54,8 +50,7 @@ def jump(model: str, g: float, sigma: float, overrides: dict) -> tuple[float, fl
             core = drop & (dist < 0.5 * R)
             samples.append(float((p[core] - fit[0] - fit[1] * x[core, 1]).mean()))
     run(sim, T, sample)
-    xd = sy.x[drop]
-    return float(np.mean(samples)), R, float(np.linalg.norm(xd - xd.mean(0), axis=1).max() + R_PARTICLE) / R
+    return float(np.mean(samples)), R, max_radius_ratio(sy.x[drop], R_PARTICLE, R)
 
 
 def main() -> None:

@@ -478,6 +478,43 @@ def four_phase(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     ]
 
 
+def laplace_box(dim: int) -> float:
+    """Side [m] of the `laplace` case's closed box: 0.4 in 2-D, 0.3 in 3-D."""
+    return 0.4 if dim == 2 else 0.3
+
+
+def _laplace_half(dim: int) -> float:
+    """Half side [m] of the `laplace` case's square (cube) drop: the area of a disc of radius
+    0.1 m (the volume of a sphere of 0.09 m)."""
+    return 0.5 * (math.sqrt(math.pi) * 0.1 if dim == 2 else (4.0 * math.pi / 3.0) ** (1 / 3) * 0.09)
+
+
+def laplace_drop(dim: int, r: float) -> ParticleSystem:
+    """The `laplace` case's start: a square (cube) drop of phase "drop" (a disc of radius
+    0.1 m / a sphere of 0.09 m by volume) in the middle of a closed box (:func:`laplace_box`)
+    filled with phase "ambient", both 1000 kg/m³, gravity off."""
+    W = laplace_box(dim)
+    half = _laplace_half(dim)
+    c = W / 2
+    inside = lambda p: np.where((np.abs(p - c) < half).all(1), 1, 0)  # noqa: E731
+    phases = [Phase("ambient", 1000.0), Phase("drop", 1000.0)]
+    size = [W] * dim
+    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), inside)], phases,
+                     wall_height=W, name="laplace", closed=True)
+    sy.gravity[:] = 0.0
+    return sy
+
+
+def drop_radius(n_drop: int, V0: float, dim: int) -> float:
+    """Radius [m] of a disc (sphere) holding ``n_drop`` particles of volume ``V0``."""
+    return (n_drop * V0 / math.pi) ** 0.5 if dim == 2 else (3 * n_drop * V0 / (4 * math.pi)) ** (1 / 3)
+
+
+def max_radius_ratio(x_drop: np.ndarray, r: float, R: float) -> float:
+    """The drop's outermost particle edge from its centre of mass, over R (1 when round)."""
+    return float(np.linalg.norm(x_drop - x_drop.mean(0), axis=1).max() + r) / R
+
+
 def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     """A square (cube) droplet in a closed box of a second phase, no gravity: it relaxes to
     round and its pressure jump matches Young-Laplace, Δp = σ/R in 2-D and 2σ/R in 3-D
@@ -486,20 +523,12 @@ def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     noise at these resolutions; the densities are equal (1000)."""
     sigma = 10.0
     r = (0.01 if quick else 0.005) if dim == 2 else (0.0125 if quick else 0.01)
-    W = 0.4 if dim == 2 else 0.3
-    half = 0.5 * (math.sqrt(math.pi) * 0.1 if dim == 2 else (4.0 * math.pi / 3.0) ** (1 / 3) * 0.09)
-    c = W / 2
-    inside = lambda p: np.where((np.abs(p - c) < half).all(1), 1, 0)  # noqa: E731
-    phases = [Phase("ambient", 1000.0), Phase("drop", 1000.0)]
-    size = [W] * dim
-    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), inside)], phases,
-                     wall_height=W, name="laplace", closed=True)
-    sy.gravity[:] = 0.0
+    W = laplace_box(dim)
+    sy = laplace_drop(dim, r)
     cfg = SPHConfig.from_dict({**cfg.to_dict(), "interfacial_tension": {"ambient/drop": sigma}})
     sim = Simulator(sy, cfg)
     drop = sy.phase == 1
-    n_drop = int(drop.sum())
-    R = (n_drop * sim.V0 / math.pi) ** 0.5 if dim == 2 else (3 * n_drop * sim.V0 / (4 * math.pi)) ** (1 / 3)
+    R = drop_radius(int(drop.sum()), sim.V0, dim)
     T = 1.5 if quick else 2.5
     p_in, p_out = [], []
 
@@ -516,10 +545,9 @@ def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     run(sim, T, sample)
     dp = float(np.mean(p_in) - np.mean(p_out))
     ref = (1 if dim == 2 else 2) * sigma / R
-    xd = sy.x[drop]
-    shape = float(np.linalg.norm(xd - xd.mean(0), axis=1).max() + r) / R
+    shape = max_radius_ratio(sy.x[drop], r, R)
     start = math.sqrt(2) if dim == 2 else math.sqrt(3)
-    start *= half / R
+    start *= _laplace_half(dim) / R
     label = f"Laplace droplet {dim}D (N={sy.n_fluid}, R={R * 100:.1f} cm)"
     return [
         Row(label, "Δp / (σ/R)" if dim == 2 else "Δp / (2σ/R)", dp / ref, "1", "±15 %",
