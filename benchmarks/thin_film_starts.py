@@ -8,6 +8,7 @@ fluid"; the row asks 0.67-1.5).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 import time
@@ -19,26 +20,36 @@ from dcdc.sph import SPHConfig, cases
 PERTURBATION = 1e-4  # [m]
 
 
-def main(argv: list[str]) -> None:
+@contextlib.contextmanager
+def perturbed_tanks(start: int):
+    """Within it, every tank the validation cases build (``cases.tank_system``) has its
+    particles moved by ``PERTURBATION`` (Gaussian, seed ``start``; 0: the lattice as is)."""
     tank = cases.tank_system
-    for start in [int(a) for a in argv] or [0]:
-        rng = np.random.default_rng(start)
+    rng = np.random.default_rng(start)
 
-        def perturbed(*args, **kwargs):
-            sy = tank(*args, **kwargs)
-            if start:
-                sy.x += rng.normal(0.0, PERTURBATION, sy.x.shape)
-            return sy
-        cases.tank_system = perturbed
+    def perturbed(*args, **kwargs):
+        sy = tank(*args, **kwargs)
+        if start:
+            sy.x += rng.normal(0.0, PERTURBATION, sy.x.shape)
+        return sy
+    cases.tank_system = perturbed
+    try:
+        yield
+    finally:
+        cases.tank_system = tank
+
+
+def main(argv: list[str]) -> None:
+    for start in [int(a) for a in argv] or [0]:
         t = time.time()
-        runs = cases.film_pair(2, 0.005, SPHConfig())
+        with perturbed_tanks(start):
+            runs = cases.film_pair(2, 0.005, SPHConfig())
         print(json.dumps({"start": start, "ratio": round(runs["ratio"], 3),
                           "rise_deep_mm": round(1e3 * runs["deep"]["rise"], 1),
                           "rise_shallow_mm": round(1e3 * runs["shallow"]["rise"], 1),
                           "left_deep": round(runs["deep"]["left"], 3),
                           "left_shallow": round(runs["shallow"]["left"], 3),
                           "wall_s": round(time.time() - t, 1)}), flush=True)
-    cases.tank_system = tank
 
 
 if __name__ == "__main__":

@@ -304,3 +304,22 @@ def test_the_layered_reference_lets_a_deep_film_rise():
     from dcdc.sph.cases import FILM, film_rise
     run = film_rise(2, 0.005, SPHConfig(reference_stratified=True), FILM["deep"])
     assert run["rise"] > 0.01, run
+
+
+def test_an_aliased_empty_slab_inside_the_fluid_keeps_its_neighbours_density():
+    """Rows one spacing apart leave a slab of one spacing empty when they sit on its faces:
+    inside the fluid such a slab takes the lower of the densities above and below it (so q
+    does not lose |g| ρ_ref d there), while slabs above the first occupied one stay 0."""
+    from dcdc.sph.reference import fill_aliased_slabs, strata
+    inf = np.inf
+    np.testing.assert_array_equal(fill_aliased_slabs(np.array([inf, 1000., inf, 2000., inf, 1500.])),
+                                  [0., 1000., 1000., 2000., 1500., 1500.])
+    assert not fill_aliased_slabs(np.array([inf, inf])).any()
+    # rows two slabs apart, as aliasing leaves them: every second slab holds none
+    g = np.array([0.0, -9.81])
+    d, level = 0.01, 1.0
+    y = level - d * (2 * np.arange(30) + 0.5)
+    prof = strata(np.c_[np.zeros(len(y)), y], np.full(len(y), 1000.0), g, level, d)
+    assert prof[0] == 900.0 and np.all(prof == 900.0)
+    q = reference_pressure(np.array([[0.0, 0.6]]), g, prof, level, d)[0]
+    assert q == pytest.approx(900.0 * 9.81 * 0.4)  # with the gaps at 0: half of it
