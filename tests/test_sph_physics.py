@@ -62,7 +62,9 @@ def test_no_tunnelling_through_a_wall_at_5_m_s():
 def test_hydrostatic_column_and_density(dim):
     from dcdc.sph.cases import hydrostatic
     rows = hydrostatic(dim, True, SPHConfig())
-    assert all(r.passed for r in rows), [(r.quantity, r.measured) for r in rows]
+    checks = [r for r in rows if r.passed is not None]
+    assert len(checks) == 4 and all(r.passed for r in checks), \
+        [(r.quantity, r.measured) for r in rows]
 
 
 def test_inactive_particles_wait_for_their_birth():

@@ -235,8 +235,7 @@ def lock_exchange_run(r: float, cfg: SPHConfig, L: float = LOCK_L, H: float = LO
     split = lambda pts: np.where(pts[:, 0] < L / 2, 0, 1)  # noqa: E731
     sy = tank_system(2, r, [L, H], [(np.zeros(3), [L, H, 0.0], split)], phases,
                      wall_height=H, name="lock_exchange", closed=True)
-    if seed:
-        sy.v += 1e-3 * np.random.default_rng(seed).standard_normal(sy.v.shape)
+    jitter(sy, seed)
     sim = Simulator(sy, cfg)
     gp = G * (rho[0] - rho[1]) / (0.5 * (rho[0] + rho[1]))
     T0 = math.sqrt(H / gp)
@@ -260,6 +259,13 @@ def lock_exchange_run(r: float, cfg: SPHConfig, L: float = LOCK_L, H: float = LO
 LOCK_SEEDS = (0, 1, 2)  # the ensemble: the start at rest and two 1 mm/s random starts
 
 
+def jitter(sy: ParticleSystem, seed: int) -> None:
+    """An ensemble member's start: ``seed`` > 0 adds a random velocity of 1 mm/s rms per
+    component (seed 0: the start at rest, unchanged)."""
+    if seed:
+        sy.v += 1e-3 * np.random.default_rng(seed).standard_normal(sy.v.shape)
+
+
 def lock_exchange_ensemble(r: float, cfg: SPHConfig, seeds=LOCK_SEEDS) -> dict:
     """:func:`lock_exchange_run` for each start in ``seeds``: the mean of every front speed
     and Froude number, the spread (max - min) of the heavy and light Froude numbers, the
@@ -277,7 +283,10 @@ def lock_exchange_ensemble(r: float, cfg: SPHConfig, seeds=LOCK_SEEDS) -> dict:
 
 # ---------------------------------------------------------------------------- cases
 def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
-    """Tank at rest: pressure gradient against ρ g, ψ error, residual speed after settling.
+    """Tank at rest: pressure gradient against ρ g, ψ error, residual speed after settling
+    (mean over the start at rest and two 1 mm/s random starts, :func:`jitter`: the packing of
+    the lattice start settles in sudden rearrangements, so one start is luck either way;
+    docs/sph.md, "What holds the thin film").
 
     r = 1.25 cm (2-D full: 6.25 mm), 40 particles deep. At r = 2.5 cm only 4 rows lie
     outside the kernel support of floor and surface, and the fitted slope of a 3-D tank
@@ -285,8 +294,13 @@ def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     r = 0.00625 if (dim == 2 and not quick) else 0.0125
     W, H = 0.5, 0.5
     size = _depth_size(dim, W, H, 0.15 if quick else 0.2)
-    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), _const(0))],
-                     [Phase("water", 1000.0)], wall_height=H + 0.2, name="hydrostatic")
+
+    def tank(seed: int = 0) -> ParticleSystem:
+        sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), _const(0))],
+                         [Phase("water", 1000.0)], wall_height=H + 0.2, name="hydrostatic")
+        jitter(sy, seed)
+        return sy
+    sy = tank()
     sim = Simulator(sy, cfg)
     T = 2.0 if quick else 3.0
     rho0 = 1000.0
@@ -318,15 +332,22 @@ def hydrostatic(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     psi = sim.density() / rho0
     inner = (y > h) & (y < surface - h)
     dens_err = float(np.abs(psi[inner] - 1.0).mean())
-    speed = float(np.sqrt((sy.v ** 2).sum(1)).mean())
     uref = math.sqrt(G * height)
+    speeds = [float(np.sqrt((sy.v ** 2).sum(1)).mean()) / uref]
+    for seed in LOCK_SEEDS[1:]:  # the residual motion is chaotic: an ensemble of starts
+        other = tank(seed)
+        Simulator(other, cfg).run(T, FRAME)
+        speeds.append(float(np.sqrt((other.v ** 2).sum(1)).mean()) / uref)
+    speed = float(np.mean(speeds))
     c = f"hydrostatic {dim}D (N={sy.n_fluid})"
     return [
         Row(c, "dp/dy / (ρ0 g)", -slope / (rho0 * G), "1", "±5 %", grad_err <= 0.05),
         Row(c, "p(H/2) / (ρ0 g H/2), H = surface", p_mid / (rho0 * G * surface / 2), "1", "±5 %",
             mid_err <= 0.05),
         Row(c, "mean |ρ/ρ0 - 1|", dens_err, "0", "< 1 %", dens_err < 0.01),
-        Row(c, "mean speed / sqrt(gH)", speed / uref, "0", "< 1 %", speed / uref < 0.01),
+        Row(c, f"mean speed / sqrt(gH), mean of {len(speeds)} starts", speed, "0", "< 1 %",
+            speed < 0.01),
+        Row(c, "mean speed / sqrt(gH), largest start", max(speeds), "0", "info", None),
     ]
 
 
