@@ -8,6 +8,7 @@ deep / shallow rise ratio (asks 0.67-1.5), the tank at rest's mean speed / √(g
 (lattice start; asks 1.251 ± 10 %). docs/sph.md, "What holds the thin film: the XSPH filter".
 
     python benchmarks/damping_film_tank.py 0.1/1e-3 0.05/1e-3 ... >> benchmarks/damping_film_tank.jsonl
+    python benchmarks/damping_film_tank.py '{"reference_share": 1.0}' >> ...   # other settings
 """
 from __future__ import annotations
 
@@ -22,8 +23,8 @@ from dcdc.sph import SPHConfig, cases
 STARTS = (0, 1, 2)
 
 
-def measure(xsph: float, viscosity: float) -> dict:
-    cfg = SPHConfig.from_dict({**SPHConfig().to_dict(), "xsph": xsph, "viscosity": viscosity})
+def measure(overrides: dict) -> dict:
+    cfg = SPHConfig.from_dict({**SPHConfig().to_dict(), **overrides})
     t = time.time()
     ratio, deep, shallow = [], [], []
     for start in STARTS:
@@ -35,7 +36,7 @@ def measure(xsph: float, viscosity: float) -> dict:
     rest = {r.quantity.split(",")[-1].strip(): r.measured for r in cases.hydrostatic(2, False, cfg)
             if r.quantity.startswith("mean speed")}
     front = {r.quantity: r.measured for r in cases.dam_break(2, False, cfg)}
-    return {"xsph": xsph, "viscosity": viscosity, "film_ratio": ratio, "film_deep_mm": deep,
+    return {**overrides, "film_ratio": ratio, "film_deep_mm": deep,
             "film_shallow_mm": shallow,
             "tank_speed_mean": round(rest["mean of 3 starts"], 4),
             "tank_speed_largest": round(rest["largest start"], 4),
@@ -45,8 +46,12 @@ def measure(xsph: float, viscosity: float) -> dict:
 
 def main(argv: list[str]) -> None:
     for spec in argv or ["0.1/1e-3"]:
-        xsph, viscosity = (float(v) for v in spec.split("/"))
-        print(json.dumps(measure(xsph, viscosity)), flush=True)
+        if spec.startswith("{"):  # any other settings, as JSON
+            overrides = json.loads(spec)
+        else:
+            xsph, viscosity = (float(v) for v in spec.split("/"))
+            overrides = {"xsph": xsph, "viscosity": viscosity}
+        print(json.dumps(measure(overrides)), flush=True)
 
 
 if __name__ == "__main__":

@@ -56,7 +56,7 @@ def test_cli_table_and_json(tmp_path):
     assert "measured" in r.stdout and "PASS" in r.stdout
     assert "4/4 checks passed" in r.stdout
     doc = json.loads(out.read_text())
-    assert doc["passed"] and doc["quick"] and len(doc["rows"]) == 4
+    assert doc["passed"] and doc["quick"] and len(doc["rows"]) == 5  # 4 checks, 1 info row
     assert doc["sph"]["dt_max"] == 0.004 and doc["sph"]["xsph"] == 0.1  # ran with the override
 
 

@@ -6,6 +6,7 @@ from dataclasses import MISSING, asdict, dataclass, field, fields
 import math
 
 from ..errors import DcdcError
+from .reference import AUTO_REFERENCE
 
 SOLVERS = ("dfsph", "wcsph")
 BOUNDARIES = ("map", "particles")
@@ -88,10 +89,21 @@ class SPHConfig:
         discretely the particle arrangement's stiffness then follows p - q, not the depth,
         so light fluid does not stay under heavy fluid and thin layers deep under heavier
         fluid can move. Exact in a container without a free surface; with one, only while
-        that surface stays at L. At most the lightest phase's density. 0 (default) = 0.9 ×
-        the lightest phase's density with ``reference_surface``
-        (:data:`dcdc.sph.reference.AUTO_REFERENCE`) or per height with
-        ``reference_stratified`` (the defaults), off without both.
+        that surface stays at L. At most the lightest phase's density. 0 (default) =
+        ``reference_share`` × the lightest phase's density with ``reference_surface`` or per
+        height with ``reference_stratified`` (the defaults), off without both.
+    reference_share: the share of the density that the automatic reference takes out
+        (default :data:`dcdc.sph.reference.AUTO_REFERENCE` = 0.9, in (0, 1]): below 1 the
+        fluid keeps that part of its weight in the pair force, which closes gaps under the
+        level as long as the solves only push; 1 together with ``reference_suction`` frees
+        the 2-D thin film (docs/sph.md, "What holds the thin film").
+    reference_suction: the constant-density solve bounds the total pressure, p' + q >= 0,
+        instead of p' >= 0, for the particles with a full neighbourhood more than a diameter
+        under the level, and corrects their expansion like their compression (a liquid
+        under a head can be below its hydrostatic pressure; a gap under the level closes by
+        the pressure around it). Off by default; not for closed, filled containers
+        (:func:`dcdc.sph.reference.closed_container` switches it off: the lock exchange
+        blew up with it, docs/sph.md, "Suction").
     reference_level: L [m], the height (along -g) where q = 0, fixed (only with
         ``reference_surface = false``): for a closed, completely filled container any height
         at or above the fluid (e.g. its lid). Unset (None, the default) = the top of the
@@ -150,6 +162,8 @@ class SPHConfig:
     interfacial_tension: dict = field(default_factory=dict)
     interfacial_model: str = "pairwise"
     background_pressure: float = 0.0
+    reference_suction: bool = False
+    reference_share: float = AUTO_REFERENCE
     reference_density: float = 0.0
     reference_level: float | None = None
     reference_surface: bool = True
@@ -181,7 +195,7 @@ class SPHConfig:
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise DcdcError(f"sph.{name} must be an integer >= 1 (got {v!r})")
         for name in ("divergence_solve", "no_slip", "wall_buoyancy", "reference_surface",
-                     "reference_stratified"):
+                     "reference_stratified", "reference_suction"):
             if not isinstance(getattr(self, name), bool):
                 raise DcdcError(f"sph.{name} must be true or false (got {getattr(self, name)!r})")
         if self.support <= 2.0:
@@ -194,6 +208,7 @@ class SPHConfig:
                 raise DcdcError("sph.reference_level fixes the reference level, which "
                                 "sph.reference_surface (on by default) moves: set "
                                 "sph.reference_surface = false with it")
+        _check_number(self, "reference_share", lambda v: 0 < v <= 1, "in (0, 1]")
         if self.omega > 1.0:
             raise DcdcError(f"sph.omega must be <= 1 (got {self.omega})")
         if self.dt_min > self.dt_max:

@@ -12,6 +12,9 @@ One substep of length Δt:
 3. constant-density solve: pressures p >= 0 with  ψ + Δt Dψ/Dt(v* + Δt a(p)) = ψ_target,
    ψ_target = max(1, ψ - Δt u_c/2r): new compression is stopped in full, a density error
    already present is removed at most at the rate u_c/2r (``SPHConfig.correction_speed``);
+   with ``SPHConfig.reference_suction`` the bound is p + q >= 0 (q the hydrostatic reference,
+   :mod:`dcdc.sph.reference`) instead of p >= 0 for the particles a diameter under its
+   level, whose expansion is then corrected like their compression (docs/sph.md, "Suction");
 4. v = v* + Δt a(p),  x += Δt v  (then the walls' contact, :meth:`VolumeMap.keep_outside`).
 
 Both solves are the same linear complementarity problem A p = s, p >= 0, where A is the map
@@ -28,6 +31,7 @@ from . import pcg
 from .config import SPHConfig
 from .forces import non_pressure_acceleration, smooth_velocity
 from .neighbourhood import Neighbourhood
+from .reference import reference_pressure, up_and_g
 from .state import State
 from .terms import compression_rate, jacobi_update, pressure_acceleration, pressure_diagonal
 
@@ -101,6 +105,18 @@ def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray
     return it, err, a
 
 
+def _covered_reference(s: State, full: np.ndarray, diameter: float) -> np.ndarray | None:
+    """q_i of the hydrostatic reference for the particles with a full neighbourhood more
+    than a diameter under its level (0 elsewhere); None without a reference."""
+    if s.reference is None:
+        return None
+    rho_ref, level, dz = s.reference
+    q = reference_pressure(s.x, s.gravity, rho_ref, level, dz)
+    up, _ = up_and_g(s.gravity)
+    deep = (np.asarray(level) - s.x @ up) > diameter
+    return np.where(full & deep, q, 0.0)
+
+
 def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
     """Advance ``s`` by ``dt`` in place; returns iteration counts and solver errors."""
     diag = pressure_diagonal(s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
@@ -122,14 +138,26 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
     psi_star = nbh.psi + dt * rate
     mask = full & (psi_star >= 1.0 - SURFACE_GAP)
     base = psi_star
+    diameter = 2.0 * s.h / cfg.support
     if cfg.correction_speed > 0:
-        diameter = 2.0 * s.h / cfg.support
         # the density error already present is removed at most at the rate u_c / 2r per
         # second (target max(1, ψ - Δt u_c/2r)); new compression is still stopped in full
         slack = np.maximum(nbh.psi - 1.0 - dt * cfg.correction_speed / diameter, 0.0)
         base = psi_star - slack
+    q = _covered_reference(s, full, diameter) if cfg.reference_suction else None
+    if q is not None:
+        # the solves find p' >= -q (total pressure >= 0) and close gaps under the level too
+        covered = q > 0
+        mask = mask | covered
+        gap = np.maximum(1.0 - nbh.psi - dt * cfg.correction_speed / diameter, 0.0)
+        base = base + np.where(covered, gap, 0.0)
+        base = base - dt * dt * _apply(s, nbh, q, np.empty_like(s.v))
+        s.p += q
     it, err, a = pressure_solve(s, nbh, s.p, base, dt * dt, 1.0, mask,
                                 cfg.density_tolerance, diag, cfg)
+    if q is not None:
+        s.p -= q
+        a = _acceleration(s, nbh, s.p, a)
     s.v += dt * a
     s.x += dt * s.v
     return {"iterations": it, "divergence_iterations": it_div, "solver_error": err,

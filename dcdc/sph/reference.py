@@ -50,8 +50,9 @@ def fill_level(x: np.ndarray, gravity: np.ndarray, r: float) -> float:
 
 
 AUTO_REFERENCE = 0.9
-"""``reference_surface`` without a ``reference_density``: ρ_ref = 0.9 × the lightest phase's
-density. Below it, not at it: the lightest phase keeps a tenth of its weight, so gaps in it
+"""The default ``SPHConfig.reference_share``: with ``reference_surface`` and no
+``reference_density``, ρ_ref = 0.9 × the lightest phase's density (per slab with
+``reference_stratified``). Below it, not at it: the lightest phase keeps a tenth of its weight, so gaps in it
 (the lattice's at sloped walls, air) rise as air does; at the full density it is weightless
 and they stay (docs/sph.md, "Closed containers")."""
 
@@ -208,6 +209,9 @@ lock exchange's heavy front by 3 % at 5 mm (docs/sph.md, "Closed containers"). T
 def closed_container(settings: dict, rho_ref: float) -> dict:
     """Solver ``settings`` for a closed container: the hydrostatic reference of density
     ``rho_ref`` (the lightest phase's at most, one for the whole container) fixed at the
-    fill height, and :data:`CLOSED_DAMPING`; the other reference options off."""
+    fill height, and :data:`CLOSED_DAMPING`; the other reference options off (suction too:
+    with it the closed 1.5:1 lock exchange's first solve found 200 kPa and the run blew up,
+    docs/sph.md, "Suction")."""
     return {**settings, "reference_density": float(rho_ref), "reference_level": None,
-            "reference_surface": False, "reference_stratified": False, **CLOSED_DAMPING}
+            "reference_surface": False, "reference_stratified": False,
+            "reference_suction": False, **CLOSED_DAMPING}

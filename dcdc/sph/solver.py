@@ -37,7 +37,7 @@ from .config import SPHConfig
 from . import interfaces
 from .kernels import lattice_volume
 from .neighbourhood import build
-from .reference import AUTO_REFERENCE, fill_level, reference_pressure, strata, surface_levels
+from .reference import fill_level, reference_pressure, strata, surface_levels
 from .state import State
 from .terms import mixture_density, psi_gradient
 
@@ -80,7 +80,7 @@ class Simulator:
         self._reference = None
         lightest = min(ph.density for ph in system.phases)
         auto = cfg.reference_surface or cfg.reference_stratified
-        rho_ref = cfg.reference_density or (AUTO_REFERENCE * lightest if auto else 0.0)
+        rho_ref = cfg.reference_density or (cfg.reference_share * lightest if auto else 0.0)
         if rho_ref > lightest:
             raise DcdcError(f"sph.reference_density ({cfg.reference_density:g}) exceeds the "
                             f"lightest phase's density ({lightest:g} kg/m³)")
@@ -109,7 +109,7 @@ class Simulator:
                                    s.gravity, nbh.rs, nbh.idx, self._fill, margin=d)
         if self.cfg.reference_stratified and not self.cfg.reference_density:
             rho_bar = mixture_density(s.rho0, nbh.rs, nbh.idx, nbh.W, exclude_self=True)
-            rho_ref, dz = strata(s.x, rho_bar, s.gravity, level, d), d
+            rho_ref, dz = strata(s.x, rho_bar, s.gravity, level, d, self.cfg.reference_share), d
         return rho_ref, level, dz
 
     # ------------------------------------------------------------------ stepping
