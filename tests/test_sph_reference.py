@@ -334,23 +334,23 @@ def _closed_tank_with_a_void(r=0.0125):
                                phase=sy.phase[keep].copy(), birth=None, death=None)
 
 
-@pytest.mark.parametrize("suction", [False, True])
-def test_suction_closes_a_void_under_the_level_and_keeps_the_total_pressure_positive(suction):
+def test_with_suction_a_void_under_the_level_rises_and_the_total_pressure_stays_positive():
     """With the whole level in the reference (a closed tank, ρ_ref = ρ) the pair force sees
-    no weight, so with the solves held at p' >= 0 a void 12 cm down stays open (measured:
-    42-62 particles expanded below ψ 0.95 over 1 s); with ``reference_suction`` the solves
-    may go down to p' = -q (total pressure >= 0) and close it within 0.25 s."""
-    sy = _closed_tank_with_a_void()
-    sim = Simulator(sy, SPHConfig(reference_density=1000.0, reference_level=0.3,
-                                  reference_surface=False, reference_suction=suction))
-    sim.run(0.5)
-    expanded = int((sim.density() / 1000.0 < 0.95).sum())
-    if suction:
-        assert expanded == 0
-        assert sim.pressure().min() > -1.0  # Pa: the total, p' + q, stays >= 0
-        assert np.all(np.isfinite(sy.x)) and np.abs(sy.v).max() < 0.1
-    else:
-        assert expanded > 20
+    no weight, so with the solves held at p' >= 0 a void 12 cm down is only slowly displaced;
+    with ``reference_suction`` the solves may go down to p' = -q (total pressure >= 0) and the
+    void rises as a bubble does: the fluid's mean height falls faster (measured after 1 s:
+    -4.5 mm against -1.8 mm), with the total pressure >= 0 and the fluid calm."""
+    fall = {}
+    for suction in (False, True):
+        sy = _closed_tank_with_a_void()
+        y0 = sy.x[:, 1].mean()
+        sim = Simulator(sy, SPHConfig(reference_density=1000.0, reference_level=0.3,
+                                      reference_surface=False, reference_suction=suction))
+        sim.run(1.0)
+        fall[suction] = y0 - sy.x[:, 1].mean()
+        assert sim.pressure().min() > -1.0  # Pa: the total, p' + q
+        assert np.all(np.isfinite(sy.x)) and np.abs(sy.v).max() < 0.05
+    assert fall[False] > 0 and fall[True] > 2.0 * fall[False], fall
 
 
 def test_reference_share_and_suction_are_checked():

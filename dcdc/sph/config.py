@@ -98,12 +98,10 @@ class SPHConfig:
         level as long as the solves only push; 1 together with ``reference_suction`` frees
         the 2-D thin film (docs/sph.md, "What holds the thin film").
     reference_suction: the constant-density solve bounds the total pressure, p' + q >= 0,
-        instead of p' >= 0, for the particles with a full neighbourhood more than a diameter
-        under the level, and corrects their expansion like their compression (a liquid
-        under a head can be below its hydrostatic pressure; a gap under the level closes by
-        the pressure around it). Off by default; not for closed, filled containers
-        (:func:`dcdc.sph.reference.closed_container` switches it off: the lock exchange
-        blew up with it, docs/sph.md, "Suction").
+        instead of p' >= 0, for its particles (a full neighbourhood, not expanded) more than
+        a diameter under the level: a liquid under a head can be below its hydrostatic
+        pressure, so a gap under the level rises as a bubble does. Off by default
+        (docs/sph.md, "Suction").
     reference_level: L [m], the height (along -g) where q = 0, fixed (only with
         ``reference_surface = false``): for a closed, completely filled container any height
         at or above the fluid (e.g. its lid). Unset (None, the default) = the top of the

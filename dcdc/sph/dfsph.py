@@ -14,7 +14,7 @@ One substep of length Δt:
    already present is removed at most at the rate u_c/2r (``SPHConfig.correction_speed``);
    with ``SPHConfig.reference_suction`` the bound is p + q >= 0 (q the hydrostatic reference,
    :mod:`dcdc.sph.reference`) instead of p >= 0 for the particles a diameter under its
-   level, whose expansion is then corrected like their compression (docs/sph.md, "Suction");
+   level (docs/sph.md, "Suction");
 4. v = v* + Δt a(p),  x += Δt v  (then the walls' contact, :meth:`VolumeMap.keep_outside`).
 
 Both solves are the same linear complementarity problem A p = s, p >= 0, where A is the map
@@ -105,16 +105,19 @@ def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray
     return it, err, a
 
 
-def _covered_reference(s: State, full: np.ndarray, diameter: float) -> np.ndarray | None:
-    """q_i of the hydrostatic reference for the particles with a full neighbourhood more
-    than a diameter under its level (0 elsewhere); None without a reference."""
+def _covered_reference(s: State, solved: np.ndarray, diameter: float) -> np.ndarray | None:
+    """q_i of the hydrostatic reference for the particles of the constant-density solve
+    (``solved``: a full neighbourhood, not expanded) more than a diameter under its level,
+    0 elsewhere; None without a reference. Expanded particles stay out: with them (the
+    first form, session 23) the walls' ψ deficits at a closed box's corners and lid entered
+    the solve with the target ψ = 1 and the lock exchange blew up (docs/sph.md, "Suction")."""
     if s.reference is None:
         return None
     rho_ref, level, dz = s.reference
     q = reference_pressure(s.x, s.gravity, rho_ref, level, dz)
     up, _ = up_and_g(s.gravity)
     deep = (np.asarray(level) - s.x @ up) > diameter
-    return np.where(full & deep, q, 0.0)
+    return np.where(solved & deep, q, 0.0)
 
 
 def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
@@ -144,13 +147,10 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
         # second (target max(1, ψ - Δt u_c/2r)); new compression is still stopped in full
         slack = np.maximum(nbh.psi - 1.0 - dt * cfg.correction_speed / diameter, 0.0)
         base = psi_star - slack
-    q = _covered_reference(s, full, diameter) if cfg.reference_suction else None
+    q = _covered_reference(s, mask, diameter) if cfg.reference_suction else None
     if q is not None:
-        # the solves find p' >= -q (total pressure >= 0) and close gaps under the level too
-        covered = q > 0
-        mask = mask | covered
-        gap = np.maximum(1.0 - nbh.psi - dt * cfg.correction_speed / diameter, 0.0)
-        base = base + np.where(covered, gap, 0.0)
+        # solve for p' + q >= 0 (total pressure >= 0) instead of p' >= 0: the right-hand side
+        # shifted by the operator applied to q, the warm start by q
         base = base - dt * dt * _apply(s, nbh, q, np.empty_like(s.v))
         s.p += q
     it, err, a = pressure_solve(s, nbh, s.p, base, dt * dt, 1.0, mask,

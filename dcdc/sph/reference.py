@@ -209,9 +209,6 @@ lock exchange's heavy front by 3 % at 5 mm (docs/sph.md, "Closed containers"). T
 def closed_container(settings: dict, rho_ref: float) -> dict:
     """Solver ``settings`` for a closed container: the hydrostatic reference of density
     ``rho_ref`` (the lightest phase's at most, one for the whole container) fixed at the
-    fill height, and :data:`CLOSED_DAMPING`; the other reference options off (suction too:
-    with it the closed 1.5:1 lock exchange's first solve found 200 kPa and the run blew up,
-    docs/sph.md, "Suction")."""
+    fill height, and :data:`CLOSED_DAMPING`; the other reference options off."""
     return {**settings, "reference_density": float(rho_ref), "reference_level": None,
-            "reference_surface": False, "reference_stratified": False,
-            "reference_suction": False, **CLOSED_DAMPING}
+            "reference_surface": False, "reference_stratified": False, **CLOSED_DAMPING}
