@@ -31,7 +31,7 @@ from . import pcg
 from .config import SPHConfig
 from .forces import non_pressure_acceleration, smooth_velocity
 from .neighbourhood import Neighbourhood
-from .reference import reference_pressure, up_and_g
+from .reference import covered_pressure
 from .state import State
 from .terms import compression_rate, jacobi_update, pressure_acceleration, pressure_diagonal
 
@@ -105,21 +105,6 @@ def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray
     return it, err, a
 
 
-def _covered_reference(s: State, solved: np.ndarray, diameter: float) -> np.ndarray | None:
-    """q_i of the hydrostatic reference for the particles of the constant-density solve
-    (``solved``: a full neighbourhood, not expanded) more than a diameter under its level,
-    0 elsewhere; None without a reference. Expanded particles stay out: with them (the
-    first form, session 23) the walls' ψ deficits at a closed box's corners and lid entered
-    the solve with the target ψ = 1 and the lock exchange blew up (docs/sph.md, "Suction")."""
-    if s.reference is None:
-        return None
-    rho_ref, level, dz = s.reference
-    q = reference_pressure(s.x, s.gravity, rho_ref, level, dz)
-    up, _ = up_and_g(s.gravity)
-    deep = (np.asarray(level) - s.x @ up) > diameter
-    return np.where(solved & deep, q, 0.0)
-
-
 def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
     """Advance ``s`` by ``dt`` in place; returns iteration counts and solver errors."""
     diag = pressure_diagonal(s.rho0, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0, WALL_MIRROR)
@@ -147,17 +132,22 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
         # second (target max(1, ψ - Δt u_c/2r)); new compression is still stopped in full
         slack = np.maximum(nbh.psi - 1.0 - dt * cfg.correction_speed / diameter, 0.0)
         base = psi_star - slack
-    q = _covered_reference(s, mask, diameter) if cfg.reference_suction else None
-    if q is not None:
-        # solve for p' + q >= 0 (total pressure >= 0) instead of p' >= 0: the right-hand side
-        # shifted by the operator applied to q, the warm start by q
-        base = base - dt * dt * _apply(s, nbh, q, np.empty_like(s.v))
+    suction = cfg.reference_suction and s.reference is not None
+    if suction:
+        # solve for p' + q >= 0 (total pressure >= 0) instead of p' >= 0, for the solve's
+        # particles a diameter under the level (expanded ones stay out: with them, the first
+        # form, the walls' ψ deficits at a closed box's corners entered with the target ψ = 1
+        # and the lock exchange blew up; docs/sph.md, "Suction"): the right-hand side shifted
+        # by the operator applied to q, the warm start by q, the acceleration of q taken off
+        q = np.where(mask, covered_pressure(s.x, s.gravity, *s.reference, margin=diameter), 0.0)
+        a_q = np.empty_like(s.v)
+        base = base - dt * dt * _apply(s, nbh, q, a_q)
         s.p += q
     it, err, a = pressure_solve(s, nbh, s.p, base, dt * dt, 1.0, mask,
                                 cfg.density_tolerance, diag, cfg)
-    if q is not None:
+    if suction:
         s.p -= q
-        a = _acceleration(s, nbh, s.p, a)
+        a -= a_q
     s.v += dt * a
     s.x += dt * s.v
     return {"iterations": it, "divergence_iterations": it_div, "solver_error": err,

@@ -52,9 +52,10 @@ def fill_level(x: np.ndarray, gravity: np.ndarray, r: float) -> float:
 AUTO_REFERENCE = 0.9
 """The default ``SPHConfig.reference_share``: with ``reference_surface`` and no
 ``reference_density``, ρ_ref = 0.9 × the lightest phase's density (per slab with
-``reference_stratified``). Below it, not at it: the lightest phase keeps a tenth of its weight, so gaps in it
-(the lattice's at sloped walls, air) rise as air does; at the full density it is weightless
-and they stay (docs/sph.md, "Closed containers")."""
+``reference_stratified``). Below it, not at it: the lightest phase keeps a tenth of its
+weight, so gaps in it (the lattice's at sloped walls, air) rise as air does; at the full
+density it is weightless and, unless ``reference_suction`` lets the solves pull, they stay
+(docs/sph.md, "Closed containers", "Suction")."""
 
 SURFACE_GRADIENT = 0.75  # |∇ψ| h above this: a particle at a free surface (bulk: ~0.1)
 
@@ -188,6 +189,14 @@ def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float
     k = _slab(depth, rho_ref, dz)
     above = np.concatenate(([0.0], np.cumsum(rho_ref * dz)))[k]  # the slabs over slab k
     return g * (above + rho_ref[k] * (depth - k * dz))
+
+
+def covered_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level, dz: float,
+                     margin: float) -> np.ndarray:
+    """q_i of :func:`reference_pressure` where x_i lies more than ``margin`` under the level,
+    0 elsewhere (``reference_suction``: the particles whose solve may go down to p' = -q)."""
+    _, _, depth = _depth(x, gravity, level)
+    return np.where(depth > margin, reference_pressure(x, gravity, rho_ref, level, dz), 0.0)
 
 
 def reference_acceleration(x: np.ndarray, gravity: np.ndarray, rho0: np.ndarray,
