@@ -38,7 +38,9 @@ def test_quick_lock_exchange_runs():
     10 mm halving that damping changes the heavy front by +4.9 % (the check passes at the
     edge; +3.2 % at 5 mm), against +92 % with the open-scene defaults;
     without the reference and with the full damping the heavy front crawls (Fr 0.08
-    against 0.39, docs/sph.md "Closed containers"). 3-D returns one information row."""
+    against 0.39, docs/sph.md "Closed containers"); with the open scenes' defaults as they
+    are (full damping, the surface-following reference with suction) Fr 0.28 against 0.40
+    (0.22 before suction became the default). 3-D returns one information row."""
     rows = CASES["lock_exchange"](2, True, SPHConfig())
     checks = [r for r in rows if r.passed is not None]
     assert len(checks) == 3
@@ -49,6 +51,6 @@ def test_quick_lock_exchange_runs():
     heavy = fr["Fr heavy front (floor), mean of 3 starts"]
     given = fr["Fr heavy / light, given settings as they are"]
     assert all(f > 0 for f in fr.values()) and len(fr) == 5, fr
-    assert heavy > 1.5 * given, fr
+    assert heavy > 1.25 * given, fr
     rows3 = CASES["lock_exchange"](3, True, SPHConfig())
     assert len(rows3) == 1 and rows3[0].passed is None

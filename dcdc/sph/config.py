@@ -93,15 +93,16 @@ class SPHConfig:
         ``reference_share`` × the lightest phase's density with ``reference_surface`` or per
         height with ``reference_stratified`` (the defaults), off without both.
     reference_share: the share of the density that the automatic reference takes out
-        (default :data:`dcdc.sph.reference.AUTO_REFERENCE` = 0.9, in (0, 1]): below 1 the
+        (default :data:`dcdc.sph.reference.AUTO_REFERENCE` = 1, in (0, 1]): below 1 the
         fluid keeps that part of its weight in the pair force, which closes gaps under the
-        level as long as the solves only push; 1 together with ``reference_suction`` frees
-        the 2-D thin film (docs/sph.md, "What holds the thin film").
+        level as long as the solves only push (0.9 without suction, the default until
+        2026-12-05); 1 together with ``reference_suction`` frees the thin film of light
+        fluid under heavy fluid (docs/sph.md, "What holds the thin film").
     reference_suction: the constant-density solve bounds the total pressure, p' + q >= 0,
         instead of p' >= 0, for its particles (a full neighbourhood, not expanded) more than
         a diameter under the level: a liquid under a head can be below its hydrostatic
-        pressure, so a gap under the level rises as a bubble does. Off by default
-        (docs/sph.md, "Suction").
+        pressure, so a gap under the level rises as a bubble does. On by default since
+        2026-12-05 (docs/sph.md, "What holds the thin film").
     reference_level: L [m], the height (along -g) where q = 0, fixed (only with
         ``reference_surface = false``): for a closed, completely filled container any height
         at or above the fluid (e.g. its lid). Unset (None, the default) = the top of the
@@ -160,7 +161,7 @@ class SPHConfig:
     interfacial_tension: dict = field(default_factory=dict)
     interfacial_model: str = "pairwise"
     background_pressure: float = 0.0
-    reference_suction: bool = False
+    reference_suction: bool = True
     reference_share: float = AUTO_REFERENCE
     reference_density: float = 0.0
     reference_level: float | None = None

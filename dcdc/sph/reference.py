@@ -49,13 +49,14 @@ def fill_level(x: np.ndarray, gravity: np.ndarray, r: float) -> float:
     return float((x @ up).max()) + r
 
 
-AUTO_REFERENCE = 0.9
+AUTO_REFERENCE = 1.0
 """The default ``SPHConfig.reference_share``: with ``reference_surface`` and no
-``reference_density``, ρ_ref = 0.9 × the lightest phase's density (per slab with
-``reference_stratified``). Below it, not at it: the lightest phase keeps a tenth of its
-weight, so gaps in it (the lattice's at sloped walls, air) rise as air does; at the full
-density it is weightless and, unless ``reference_suction`` lets the solves pull, they stay
-(docs/sph.md, "Closed containers", "Suction")."""
+``reference_density``, ρ_ref = 1.0 × the lightest phase's density (per slab with
+``reference_stratified``): the lightest phase is weightless in the pair force, and
+``reference_suction`` (on by default with it) lets the solves pull, so gaps under the level
+rise as a bubble does. Without suction a share below 1 (0.9, the default until 2026-12-05)
+keeps a tenth of the weight to close those gaps, which holds thin films of light fluid under
+heavy fluid (docs/sph.md, "What holds the thin film", "Closed containers")."""
 
 SURFACE_GRADIENT = 0.75  # |∇ψ| h above this: a particle at a free surface (bulk: ~0.1)
 
