@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Scores of the shipped 2-D models against the SPH ground truth (docs/models.md):
-#   bash benchmarks/evaluate_2d.sh [DATA=datasets/2d_bd]
+#   bash benchmarks/evaluate_2d.sh [DATA=datasets/2d_su]
 # Writes benchmarks/eval_2d_*.json and plots per trajectory in out/eval_2d/. Two
 # evaluations run at a time, one thread each (2 cores); ~25 min on the idle 2-core machine.
 # The inertial baseline is the same integrator with the learned correction switched off
@@ -8,7 +8,7 @@
 # Rollouts run with the walls' wall contact (docs/evaluation.md) unless the file name says
 # nocontact; the n+1 / n+2 errors are the network alone either way.
 set -euo pipefail
-DATA=${1:-datasets/2d_bd}
+DATA=${1:-datasets/2d_su}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 python benchmarks/inertial_model.py cconv2d out/inertial2d.pt
 M="--model dcdc2d --model cconv2d"

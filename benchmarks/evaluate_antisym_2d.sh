@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # `antisym2d` before and after its fine-tuning on the current teacher's 2-D data
 # (docs/models.md, "antisym2d stage 3"), with the wall contact, on the sets of
-# evaluate_2d.sh:   bash benchmarks/evaluate_antisym_2d.sh [DATA=datasets/2d_bd]
+# evaluate_2d.sh:   bash benchmarks/evaluate_antisym_2d.sh [DATA=datasets/2d_su]
 # Writes benchmarks/eval_2d_{test_scenes,canyon10,valid,test_ratio}_antisym_bd.json.
 set -euo pipefail
-DATA=${1:-datasets/2d_bd}
+DATA=${1:-datasets/2d_su}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 M="--model benchmarks/models/antisym2d_s1.pt --model benchmarks/models/antisym2d_s3.pt"
 ev() { dcdc evaluate --stride 10 --overwrite $M "$@" > /dev/null; }

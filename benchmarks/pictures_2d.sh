@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # The SPH-above-learned-model strips of docs/models.md and the README:
-#   bash benchmarks/pictures_2d.sh [DATA=datasets/2d_bd] [MODEL=dcdc2d]
+#   bash benchmarks/pictures_2d.sh [DATA=datasets/2d_su] [MODEL=dcdc2d]
 # Rolls the model out from each SPH trajectory's first frame (wall contact on) into
 # out/pictures/, then draws docs/img/compare_<scene>_2d.png with dcdc render --compare.
 set -euo pipefail
-DATA=${1:-datasets/2d_bd}
+DATA=${1:-datasets/2d_su}
 MODEL=${2:-dcdc2d}
 mkdir -p out/pictures
 pic() {  # scene, dataset, strip times

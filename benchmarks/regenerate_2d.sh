@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # The whole 2-D set the shipped 2-D networks train and are scored on, with the solver's
-# current defaults (docs/datasets.md, "The 2-D set regenerated with a level per body of
-# fluid"; 14-17 min on 2 cores):   bash benchmarks/regenerate_2d.sh [OUT=datasets/2d_bd]
+# current defaults (docs/datasets.md, "The 2-D set regenerated with suction"; 15-17 min on
+# 2 cores):   bash benchmarks/regenerate_2d.sh [OUT=datasets/2d_su]
 # The deep columns, necks and locks come from benchmarks/make_deep_columns.py's scene files
 # (docs/datasets.md, "2-D deep columns, necks and locks"); they are written first if absent.
 # No `set -e` on the generate lines: a diverged trajectory (recorded as NAME.failed.json)
 # makes `dcdc generate` exit 1, and the next split must still run. Re-running resumes.
 set -uo pipefail
-OUT=${1:-datasets/2d_bd}
+OUT=${1:-datasets/2d_su}
 S=datasets/2d
 [ -d $S/deep_scenes ] || { for k in "50 0 tank" "50 0 glass" "40 0 neck"; do
     python benchmarks/make_deep_columns.py $S/deep_scenes $k; done; }
