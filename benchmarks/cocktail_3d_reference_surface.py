@@ -7,7 +7,8 @@ glass under denser fluid (metrics.trapped_at_walls) at 5, 10 and 15 s; one JSON 
     python benchmarks/cocktail_3d_reference_surface.py '{"reference_surface": true}'
 
 Measured 2026-12-04 in benchmarks/cocktail_3d_reference_surface.json (docs/sph.md); session 21's
-default under the key "bodies_mixture_session21" (docs/sph.md, "A level per body of fluid").
+default under the key "bodies_mixture_session21" (docs/sph.md, "A level per body of fluid"),
+session 24's (suction) under "suction_session24".
 """
 import json
 import sys

@@ -35,8 +35,9 @@ def test_quick_lock_exchange_runs():
     numbers and its checks, run with the closed-container settings (the hydrostatic
     reference, a tenth of the default damping; means of three starts), and information rows
     with XSPH and artificial viscosity off and with the given settings as they are. At
-    10 mm halving that damping changes the heavy front by +4.9 % (the check passes at the
-    edge; +3.2 % at 5 mm), against +92 % with the open-scene defaults;
+    10 mm halving that damping changed the heavy front by +4.9 % before suction and −6.5 %
+    with it (the 5 % check fails at 10 mm; −0.9 % at 5 mm, the full row), against +92 % with
+    the open-scene defaults;
     without the reference and with the full damping the heavy front crawls (Fr 0.08
     against 0.39, docs/sph.md "Closed containers"); with the open scenes' defaults as they
     are (full damping, the surface-following reference with suction) Fr 0.28 against 0.40
