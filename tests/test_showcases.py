@@ -35,9 +35,10 @@ def test_cocktail_ends_in_four_clean_layers():
     Measured at 15 s with the default reference and suction (session 24), three starts:
     purity per phase 0.91-0.97, oil at the glass 0.68 / 3.7 / 5.7 %, water and juice
     <= 0.4 %; session 21's (a level per body of fluid, layers from the neighbours' mixture
-    density, no suction) purity 0.90-0.97, oil 3.7 / 1.4 / 3.0 %, water 0-0.6 %; session 19's surface-following reference 1.7 / 2.0 /
-    6.4 %; without any reference (one start) purity 0.884-0.904, oil 7.8 %; without
-    interfacial tension purity 0.74. No phase lines the glass (< 10 % of each)."""
+    density, no suction) purity 0.90-0.97, oil 3.7 / 1.4 / 3.0 %, water 0-0.6 %; session
+    19's surface-following reference 1.7 / 2.0 / 6.4 %; without any reference (one start)
+    purity 0.884-0.904, oil 7.8 %; without interfacial tension purity 0.74. No phase lines
+    the glass (< 10 % of each)."""
     order, purity, trapped = _cocktail()
     assert order
     assert (purity >= 0.85).all(), purity

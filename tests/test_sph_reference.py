@@ -29,8 +29,9 @@ def test_force_is_the_exact_gradient_of_q():
 
 def test_the_layered_reference_is_the_exact_gradient_of_its_q():
     """reference_stratified: q of a slab profile is continuous, its force is -∇q/ρ0 (central
-    differences away from the slab faces), the profile is the share (AUTO_REFERENCE) × the lowest density given in
-    each slab, and below the deepest slab it continues the deepest's density."""
+    differences away from the slab faces), the profile is the share (AUTO_REFERENCE) × the
+    lowest density given in each slab, and below the deepest slab it continues the
+    deepest's density."""
     from dcdc.sph.reference import strata
     rng = np.random.default_rng(1)
     g = np.array([0.0, -9.81])
@@ -64,8 +65,8 @@ def test_a_lone_light_particle_does_not_set_its_slabs_reference():
     """The solver gives strata the neighbours' kernel mixture densities: a light particle
     alone in a heavy lattice (at the pressure of the heavy fluid around it) leaves its slab's
     reference far above its own density, while a light layer a kernel thick sets its slab to
-    the share × its density (the oil held at the 3-D cocktail's glass lowered its slabs' reference
-    before)."""
+    the share × its density (the oil held at the 3-D cocktail's glass lowered its slabs'
+    reference before)."""
     from dcdc.neighbors import radius_search
     from dcdc.sph.reference import strata
     from dcdc.sph.terms import edge_kernels, mixture_density
@@ -82,7 +83,8 @@ def test_a_lone_light_particle_does_not_set_its_slabs_reference():
     prof = strata(x, rho_bar, g, level, dz)
     assert prof[int((level - 0.2) / dz)] > 0.9 * 1200.0
     assert prof[int((level - 0.52) / dz)] == pytest.approx(SHARE * 500.0)
-    assert strata(x, rho0, g, level, dz)[int((level - 0.2) / dz)] == SHARE * 500.0  # by ρ0: its own
+    # by ρ0: its own density
+    assert strata(x, rho0, g, level, dz)[int((level - 0.2) / dz)] == SHARE * 500.0
 
 
 def _closed_tank(r, phase_of, phases):
@@ -251,9 +253,9 @@ def test_each_body_of_fluid_gets_its_own_level():
 
 def test_reference_surface_settings():
     """reference_surface (the default) sets the level itself: an explicit one is an error
-    that names the switch; without a reference_density it takes the share (AUTO_REFERENCE) of the lightest phase's;
-    with both switches off and no reference_density there is no reference, and without
-    gravity there is none either (q = 0)."""
+    that names the switch; without a reference_density it takes the share (AUTO_REFERENCE) of
+    the lightest phase's; with both switches off and no reference_density there is no
+    reference, and without gravity there is none either (q = 0)."""
     with pytest.raises(DcdcError, match="reference_surface = false"):
         SPHConfig(reference_level=1.0)
     assert SPHConfig().reference_surface is True

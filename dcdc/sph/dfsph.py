@@ -14,7 +14,7 @@ One substep of length Δt:
    already present is removed at most at the rate u_c/2r (``SPHConfig.correction_speed``);
    with ``SPHConfig.reference_suction`` the bound is p + q >= 0 (q the hydrostatic reference,
    :mod:`dcdc.sph.reference`) instead of p >= 0 for the particles a diameter under its
-   level (docs/sph.md, "Suction");
+   level (docs/sph.md, "What holds the thin film");
 4. v = v* + Δt a(p),  x += Δt v  (then the walls' contact, :meth:`VolumeMap.keep_outside`).
 
 Both solves are the same linear complementarity problem A p = s, p >= 0, where A is the map
@@ -137,8 +137,9 @@ def substep(s: State, nbh: Neighbourhood, dt: float, cfg: SPHConfig) -> dict:
         # solve for p' + q >= 0 (total pressure >= 0) instead of p' >= 0, for the solve's
         # particles a diameter under the level (expanded ones stay out: with them, the first
         # form, the walls' ψ deficits at a closed box's corners entered with the target ψ = 1
-        # and the lock exchange blew up; docs/sph.md, "Suction"): the right-hand side shifted
-        # by the operator applied to q, the warm start by q, the acceleration of q taken off
+        # and the lock exchange blew up; docs/sph.md, "What holds the thin film"): the
+        # right-hand side shifted by the operator applied to q, the warm start by q, the
+        # acceleration of q taken off
         q = np.where(mask, covered_pressure(s.x, s.gravity, *s.reference, margin=diameter), 0.0)
         a_q = np.empty_like(s.v)
         base = base - dt * dt * _apply(s, nbh, q, a_q)

@@ -185,6 +185,11 @@ def reference_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level: float
     """q_i = |g| ∫ ρ_ref over the depths from L down to x_i [Pa]: ρ_ref |g| max(L - x_i·e, 0)
     for a constant ρ_ref (``dz`` 0); ``dz`` > 0: ρ_ref is the slab profile of :func:`strata`."""
     _, g, depth = _depth(x, gravity, level)
+    return _pressure_at(depth, g, rho_ref, dz)
+
+
+def _pressure_at(depth: np.ndarray, g: float, rho_ref, dz: float) -> np.ndarray:
+    """q at the given depths under L (:func:`reference_pressure`)."""
     if dz == 0.0:
         return rho_ref * g * depth
     k = _slab(depth, rho_ref, dz)
@@ -196,8 +201,8 @@ def covered_pressure(x: np.ndarray, gravity: np.ndarray, rho_ref, level, dz: flo
                      margin: float) -> np.ndarray:
     """q_i of :func:`reference_pressure` where x_i lies more than ``margin`` under the level,
     0 elsewhere (``reference_suction``: the particles whose solve may go down to p' = -q)."""
-    _, _, depth = _depth(x, gravity, level)
-    return np.where(depth > margin, reference_pressure(x, gravity, rho_ref, level, dz), 0.0)
+    _, g, depth = _depth(x, gravity, level)
+    return np.where(depth > margin, _pressure_at(depth, g, rho_ref, dz), 0.0)
 
 
 def reference_acceleration(x: np.ndarray, gravity: np.ndarray, rho0: np.ndarray,
