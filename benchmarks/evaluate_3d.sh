@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Scores of the shipped 3-D models against the SPH ground truth (docs/models.md):
-#   bash benchmarks/evaluate_3d.sh [DATA=datasets/3d_bd]
+#   bash benchmarks/evaluate_3d.sh [DATA=datasets/3d_su]
 # Writes benchmarks/eval_3d_*.json and plots per trajectory in out/eval_3d/. Two
 # evaluations run at a time, one thread each (2 cores). The inertial baseline is the same
 # integrator with the learned correction switched off (every weight zero). Rollouts run
@@ -9,7 +9,7 @@
 # SHOWCASE_STEPS steps (default 500 = 10 s, the stability target); lock exchange and
 # dam break to the end of their SPH run.
 set -euo pipefail
-DATA=${1:-datasets/3d_bd}
+DATA=${1:-datasets/3d_su}
 STEPS=${SHOWCASE_STEPS:-500}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 python benchmarks/inertial_model.py cconv3d out/inertial3d.pt

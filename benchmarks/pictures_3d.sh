@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # SPH-above-learned-model strips of the 3-D showcases (docs/models.md, README):
-#   bash benchmarks/pictures_3d.sh [DATA=datasets/3d_bd] [MODEL=dcdc3d] [SCENES="cocktail hourglass canyon"]
+#   bash benchmarks/pictures_3d.sh [DATA=datasets/3d_su] [MODEL=dcdc3d] [SCENES="cocktail hourglass canyon"]
 # Rolls the model out from each SPH trajectory's first frame (wall contact on) for up to
 # 500 steps into out/pictures/, then draws docs/img/compare_<scene>_3d.png (a cut-away
 # through the middle, so the layers inside the container are visible).
 set -euo pipefail
-DATA=${1:-datasets/3d_bd}
+DATA=${1:-datasets/3d_su}
 MODEL=${2:-dcdc3d}
 SCENES=${3:-cocktail hourglass canyon}
 mkdir -p out/pictures

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole 3-D set the shipped 3-D networks train and are scored on, with the solver's
 # current defaults (docs/datasets.md, "The 3-D set regenerated with the layered reference";
-# ~1 h on 2 cores):   bash benchmarks/regenerate_3d.sh [OUT=datasets/3d_bd] [PART=all|train|test]
+# ~1 h on 2 cores):   bash benchmarks/regenerate_3d.sh [OUT=datasets/3d_su] [PART=all|train|test]
 # PART=train writes what fine-tuning needs (random train + valid, the 133 deep columns);
 # PART=test the held-out ratios, the built-ins and the 10 s canyon. The deep columns come
 # from benchmarks/make_deep_columns.py's scene files (docs/models.md, "Fine-tuning on deep
@@ -10,7 +10,7 @@
 # No `set -e` on the generate lines: a diverged trajectory (recorded as NAME.failed.json)
 # makes `dcdc generate` exit 1, and the next split must still run. Re-running resumes.
 set -uo pipefail
-OUT=${1:-datasets/3d_bd}
+OUT=${1:-datasets/3d_su}
 PART=${2:-all}
 S=datasets/3d_scenes
 [ -d $S/deep ] || python benchmarks/make_deep_columns.py $S/deep 160 0
