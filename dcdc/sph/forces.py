@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .interfaces import csf_acceleration, pairwise_acceleration
+from .interfaces import csf_acceleration, curvature_acceleration, pairwise_acceleration
 from .kernels import lattice_second_moment
 from .neighbourhood import Neighbourhood
 from .reference import reference_acceleration
@@ -34,6 +34,9 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
         model, C = s.interface
         if model == "csf":
             a += csf_acceleration(s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0)
+        elif model == "curvature":
+            a += curvature_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.G, nbh.W,
+                                        s.V0, s.h)
         else:
             a += pairwise_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, s.h, s.V0)
     if surface_tension > 0:

@@ -1,7 +1,28 @@
 """Interfacial tension between phase pairs (docs/sph.md, "Interfacial tension").
 
-``interfacial_tension = {"a/b" = σ_ab}`` [N/m; per unit depth in 2-D] with one of two models
-(``SPHConfig.interfacial_model``):
+``interfacial_tension = {"a/b" = σ_ab}`` [N/m; per unit depth in 2-D] with one of three
+models (``SPHConfig.interfacial_model``):
+
+**"curvature": the continuum surface force with an estimated curvature** (Brackbill, Kothe &
+Zemach 1992, J. Comput. Phys. 100; in SPH Morris 2000, Int. J. Numer. Meth. Fluids 33, and
+Adami, Hu & Adams 2010, J. Comput. Phys. 229). Per phase pair (a, b) a colour c = 1 on a,
+0 on b, its gradient in difference form ∇c_i = V0 Σ_j (c_j − c_i) G_ij (the pair's
+particles only), the curvature κ = −∇·n̂ of the unit normal n̂ = ∇c/|∇c| over the interface
+band |∇c| > 0.01/h with the kernel-gradient-corrected divergence (exact for a linear normal
+field: Adami et al.'s reproducing divergence is its isotropic special case, and reads 17 %
+high in a band two rows wide on each side), smoothed along the band, and the force
+per volume
+
+    a_i = (σ_ab / L) κ̄_i ∇c_i / ρ0_i,
+
+with L the lattice normalisation below. The force is normal to the interface: no tension
+along the band, so nothing clumps and no background pressure is needed. It is a gradient
+(of σκc/L) wherever κ is uniform, the gradient in the pressure force's difference form, so
+a pressure step σκ balances it: measured on the validation drops (2.5 s, no gravity)
+Δp = 0.93 / 0.92 σ/R (2-D quick / full) and 0.92 / 0.93 · 2σ/R (3-D quick / full),
+round within 6 % (docs/sph.md, "Interfacial tension"). Not pairwise antisymmetric: the net
+force on a closed drop is zero only as far as the discrete ∮ κ n̂ dA is (< 1 % of the
+inward force on a lattice drop).
 
 **"csf": the continuum surface force in its stress-tensor form.** Brackbill, Kothe
 & Zemach (1992, "A continuum method for modeling surface tension", J. Comput. Phys. 100)
@@ -44,20 +65,21 @@ tensile instability, Swegle et al. 1995): like neighbours 0.81 spacings apart, u
 (2010) add a background pressure for this: ``SPHConfig.background_pressure`` = σ/h (the
 band's peak tension σ|∇c| on the lattice, closed scenes only) keeps the band ordered (force
 0.86-0.94 σκ), but the reported jump is then 0.79-0.83 σ/R and falls as p_b grows, and the
-3-D quick drop is not round in 1.5 s (docs/sph.md, "Background pressure"), so "csf" is
-not the default.
+3-D quick drop is not round in 1.5 s (docs/sph.md, "Background pressure").
 
 **"pairwise": a repulsion between unlike particles** (pairwise-force SPH, Tartakovsky &
 Meakin 2005; Tartakovsky & Panchenko 2016, J. Comput. Phys. 305) of the pair potential
 u_ab = k_ab φ(r), φ(r) = -∫_r^h w(s/h) ds <= 0 (w: the cubic spline scaled to w(0) = 1),
 with k_ab from the Kirkwood-Buff relation σ_ab = k_ab S (S: :func:`lattice_across_sum`,
-the sum of φ over the rest-lattice pairs straddling a plane per area). The default (the
-shipped cocktail datasets were made with it): it separates an emulsion but does not give the Laplace pressure: it opens an empty row
-between the phases (unlike neighbours 2 spacings apart, like ones squeezed to 0.8) and its
+the sum of φ over the rest-lattice pairs straddling a plane per area). The default until
+session 26 and still the cocktail's (its shipped datasets were made with it; "curvature"
+stirs its layers, docs/sph.md): it separates an emulsion but does not give the Laplace
+pressure: it opens an empty row between the phases (unlike neighbours 2 spacings apart, like ones squeezed to 0.8) and its
 force is carried as pressure by both sides alike (Δp = 0.14-0.26 of Young-Laplace, docs/sph.md).
 
 Checked against the Young-Laplace jump of a 2-D and a 3-D droplet
-(``dcdc validate-sph --case laplace``).
+(``dcdc validate-sph --case laplace``; ``benchmarks/laplace_curvature.py`` for refinement,
+σ and density ratio).
 """
 from __future__ import annotations
 
@@ -69,7 +91,7 @@ import numpy as np
 from ..errors import DcdcError
 from .kernels import cubic_values, sigma, w_of_r
 
-MODELS = ("pairwise", "csf")
+MODELS = ("pairwise", "csf", "curvature")
 
 
 # ---------------------------------------------------------------------------- coefficients
@@ -153,8 +175,8 @@ def lattice_across_sum(radius: float, h: float, dim: int) -> float:
 
 def coefficients(model: str, tensions: dict, phases, h: float, V0: float,
                  dim: int) -> np.ndarray | None:
-    """The matrix the force kernel of ``model`` takes (None without tensions): "csf" σ_ab / L
-    [N/m], "pairwise" k_ab = σ_ab / S [N] (< 0, a repulsion)."""
+    """The matrix the force kernel of ``model`` takes (None without tensions): "csf" and
+    "curvature" σ_ab / L [N/m], "pairwise" k_ab = σ_ab / S [N] (< 0, a repulsion)."""
     if model not in MODELS:
         raise DcdcError(f"sph.interfacial_model must be one of {', '.join(MODELS)} (got {model!r})")
     sig = tension_matrix(tensions, phases)
@@ -162,6 +184,8 @@ def coefficients(model: str, tensions: dict, phases, h: float, V0: float,
         return None
     radius = V0 ** (1.0 / dim) / 2.0
     if model == "csf":
+        return sig / gradient_integral(radius, h, dim, V0)
+    if model == "curvature":
         return sig / gradient_integral(radius, h, dim, V0)
     return sig / lattice_across_sum(radius, h, dim)
 
@@ -245,6 +269,144 @@ def csf_acceleration(phase, rho0, C, rs, idx, G, Sb, V0):
     """"csf": the capillary acceleration of every particle (module doc)."""
     return stress_acceleration(capillary_stress(phase, C, rs, idx, G, V0), rho0, rs, idx, G,
                                Sb, V0)
+
+
+# ---------------------------------------------------------------------------- "curvature" kernels
+@nb.njit(cache=True, parallel=True)
+def colour_gradient(phase, a, b, rs, idx, G, V0):
+    """∇c_i = V0 Σ_j (c_j − c_i) G_ij of the pair's colour c = 1 on phase ``a``, 0 on phase
+    ``b`` (particles of other phases are left out of the sums and get 0): it points into
+    ``a`` from both sides of the interface and is zero away from it."""
+    n = len(rs) - 1
+    d = G.shape[1]
+    out = np.zeros((n, d))
+    for i in nb.prange(n):
+        pi = phase[i]
+        if pi != a and pi != b:
+            continue
+        ci = 1.0 if pi == a else 0.0
+        for e in range(rs[i], rs[i + 1]):
+            pj = phase[idx[e]]
+            if pj != a and pj != b:
+                continue
+            dc = (1.0 if pj == a else 0.0) - ci
+            if dc != 0.0:
+                for c in range(d):
+                    out[i, c] += V0 * dc * G[e, c]
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def curvature(grad, x, rs, idx, G, threshold, kappa_max):
+    """κ_i = −∇·n̂_i (n̂ = ∇c/|∇c|) from the kernel-gradient-corrected SPH gradient (Bonet &
+    Lok 1999): ∇n̂_i = D_i M_i⁻¹ with D_i = Σ_j (n̂_j − n̂_i) ⊗ G_ij and
+    M_i = Σ_j (x_j − x_i) ⊗ G_ij, both sums over the neighbours whose |∇c| exceeds
+    ``threshold`` (the interface band), so that it is exact for a linear normal field however
+    lopsided the band's truncated support, bounded by ``kappa_max``. Adami, Hu & Adams (2010, eq. 21) normalise the
+    same sums by the trace of M only (their reproducing divergence, exact where the band's
+    neighbours are isotropic); in a band two rows wide on either side that reads 17 % high
+    on a lattice disc (R = 10 spacings), the full correction 4 %. 0 outside the band or
+    where M is singular."""
+    n, d = grad.shape
+    out = np.zeros(n)
+    for i in nb.prange(n):
+        gi = 0.0
+        for c in range(d):
+            gi += grad[i, c] * grad[i, c]
+        gi = math.sqrt(gi)
+        if gi <= threshold:
+            continue
+        M = np.zeros((d, d))
+        D = np.zeros((d, d))
+        for e in range(rs[i], rs[i + 1]):
+            j = idx[e]
+            gj = 0.0
+            for c in range(d):
+                gj += grad[j, c] * grad[j, c]
+            gj = math.sqrt(gj)
+            if gj <= threshold:
+                continue
+            for a in range(d):
+                for b in range(d):
+                    M[a, b] += (x[j, a] - x[i, a]) * G[e, b]
+                    D[a, b] += (grad[j, a] / gj - grad[i, a] / gi) * G[e, b]
+        trM = 0.0
+        for c in range(d):
+            trM += M[c, c]
+        # a band support that does not span every direction (det ≪ (tr/d)^d; ~1 for a
+        # full one) gives no divergence
+        if abs(np.linalg.det(M)) < 0.1 * abs(trM / d) ** d:
+            continue
+        A = D @ np.linalg.inv(M)
+        tr = 0.0
+        for c in range(d):
+            tr += A[c, c]
+        # no interface is more curved than a single particle's: |κ| <= (d − 1)/r
+        out[i] = max(-kappa_max, min(kappa_max, -tr))
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def band_average(kappa, grad, rs, idx, W, threshold):
+    """κ̄_i = Σ_j W_ij |∇c_j| κ_j / Σ_j W_ij |∇c_j| over the band neighbours (self
+    included): the curvature smoothed along the band, weighted towards its middle rows,
+    whose normals are least disturbed when the particles disorder (parasitic currents are
+    driven by the curvature's particle-scale noise)."""
+    n, d = grad.shape
+    out = np.zeros(n)
+    for i in nb.prange(n):
+        if kappa[i] == 0.0:
+            continue
+        num = 0.0
+        den = 0.0
+        for e in range(rs[i], rs[i + 1]):
+            j = idx[e]
+            if kappa[j] == 0.0:
+                continue
+            gj = 0.0
+            for c in range(d):
+                gj += grad[j, c] * grad[j, c]
+            w = W[e] * math.sqrt(gj)
+            num += w * kappa[j]
+            den += w
+        out[i] = num / den if den > 0.0 else kappa[i]
+    return out
+
+
+def curvature_acceleration(x, phase, rho0, C, rs, idx, G, W, V0, h):
+    """"curvature": the continuum surface force of Brackbill, Kothe & Zemach (1992) per phase
+    pair (a, b) with σ_ab > 0 (``C`` = σ_ab / L, :func:`coefficients`), f_i = σ κ̄_i ∇c_i
+    per volume, i.e.
+
+        a_i = (σ_ab / L) κ̄_i ∇c_i / ρ0_i.
+
+    Per volume, like the solver's pressure force, so that the pressure step that balances it
+    does not depend on the densities. Brackbill et al.'s density-scaled variant (their
+    eq. 43, f ρ_i/ρ̄, the same acceleration on both sides) leaves the light side of a heavy
+    drop too little force against the drop's pressure, which the symmetric pressure force
+    passes to it divided by its own small density: an empty row opens between the phases
+    and the jump falls to 0.43 (2-D, drop 1000 in 100; docs/sph.md). ∇c:
+    :func:`colour_gradient`; κ̄: :func:`curvature` over the band |∇c| > 0.01/h
+    (:data:`BAND_THRESHOLD`, Morris 2000) smoothed by :func:`band_average`. Not pairwise
+    antisymmetric: the net force on a closed drop is zero only as far as the discrete
+    ∮ κ n̂ dA is."""
+    out = np.zeros_like(x)
+    radius = 0.5 * V0 ** (1.0 / x.shape[1])  # the particle radius r (V0 ≈ (2r)^d)
+    P = C.shape[0]
+    for a in range(P):
+        for b in range(a + 1, P):
+            if C[a, b] <= 0.0:
+                continue
+            grad = colour_gradient(phase, a, b, rs, idx, G, V0)
+            kappa = curvature(grad, x, rs, idx, G, BAND_THRESHOLD / h, (x.shape[1] - 1) / radius)
+            kappa = band_average(kappa, grad, rs, idx, W, BAND_THRESHOLD / h)
+            out += (C[a, b] * kappa / rho0)[:, None] * grad
+    return out
+
+
+# |∇c| h above which a particle is in the interface band (Morris 2000, "Simulating surface
+# tension with smoothed particle hydrodynamics", Int. J. Numer. Meth. Fluids 33, §3: 0.01/h)
+BAND_THRESHOLD = 0.01
 
 
 # ---------------------------------------------------------------------------- "pairwise" kernel
