@@ -238,9 +238,9 @@ def _curvature_fields(dim, densities=(1000.0, 1000.0), sigma=1.0):
     n = int(phase.sum())
     R = (n * V0 / math.pi) ** 0.5 if dim == 2 else (3 * n * V0 / (4 * math.pi)) ** (1 / 3)
     grad = colour_gradient(phase, 0, 1, nbh.rs, nbh.idx, nbh.G, V0)
-    kappa = band_average(curvature(grad, x, nbh.rs, nbh.idx, nbh.G, BAND_THRESHOLD / h,
-                                   (dim - 1) / 0.01), grad,
-                         nbh.rs, nbh.idx, nbh.W, BAND_THRESHOLD / h)
+    norm = np.linalg.norm(grad, axis=1)
+    kappa = band_average(curvature(grad, norm, x, nbh.rs, nbh.idx, nbh.G, BAND_THRESHOLD / h,
+                                   (dim - 1) / 0.01), norm, nbh.rs, nbh.idx, nbh.W)
     ph = [Phase("amb", densities[0]), Phase("drop", densities[1])]
     C = coefficients("curvature", {"amb/drop": sigma}, ph, h, V0, dim)
     rho0 = np.array(densities)[phase]

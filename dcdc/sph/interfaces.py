@@ -74,8 +74,9 @@ with k_ab from the Kirkwood-Buff relation σ_ab = k_ab S (S: :func:`lattice_acro
 the sum of φ over the rest-lattice pairs straddling a plane per area). The default until
 session 26 and still the cocktail's (its shipped datasets were made with it; "curvature"
 stirs its layers, docs/sph.md): it separates an emulsion but does not give the Laplace
-pressure: it opens an empty row between the phases (unlike neighbours 2 spacings apart, like ones squeezed to 0.8) and its
-force is carried as pressure by both sides alike (Δp = 0.14-0.26 of Young-Laplace, docs/sph.md).
+pressure: it opens an empty row between the phases (unlike neighbours 2 spacings apart,
+like ones squeezed to 0.8) and its force is carried as pressure by both sides alike
+(Δp = 0.13-0.28 of Young-Laplace, docs/sph.md).
 
 Checked against the Young-Laplace jump of a 2-D and a 3-D droplet
 (``dcdc validate-sph --case laplace``; ``benchmarks/laplace_curvature.py`` for refinement,
@@ -297,33 +298,28 @@ def colour_gradient(phase, a, b, rs, idx, G, V0):
 
 
 @nb.njit(cache=True, parallel=True)
-def curvature(grad, x, rs, idx, G, threshold, kappa_max):
-    """κ_i = −∇·n̂_i (n̂ = ∇c/|∇c|) from the kernel-gradient-corrected SPH gradient (Bonet &
+def curvature(grad, norm, x, rs, idx, G, threshold, kappa_max):
+    """κ_i = −∇·n̂_i (n̂ = ∇c/|∇c|, ``norm`` = |∇c|) from the kernel-gradient-corrected SPH gradient (Bonet &
     Lok 1999): ∇n̂_i = D_i M_i⁻¹ with D_i = Σ_j (n̂_j − n̂_i) ⊗ G_ij and
     M_i = Σ_j (x_j − x_i) ⊗ G_ij, both sums over the neighbours whose |∇c| exceeds
     ``threshold`` (the interface band), so that it is exact for a linear normal field however
-    lopsided the band's truncated support, bounded by ``kappa_max``. Adami, Hu & Adams (2010, eq. 21) normalise the
-    same sums by the trace of M only (their reproducing divergence, exact where the band's
-    neighbours are isotropic); in a band two rows wide on either side that reads 17 % high
-    on a lattice disc (R = 10 spacings), the full correction 4 %. 0 outside the band or
-    where M is singular."""
+    lopsided the band's truncated support, bounded by ``kappa_max``. Adami, Hu & Adams
+    (2010, eq. 21) normalise the same sums by the trace of M only (their reproducing
+    divergence, exact where the band's neighbours are isotropic); in a band two rows wide on
+    either side that reads 17 % high on a lattice disc (R = 10 spacings), the full
+    correction 4 %. 0 outside the band or where its neighbours do not span every direction
+    (det M < 0.1 (tr M / d)^d)."""
     n, d = grad.shape
     out = np.zeros(n)
     for i in nb.prange(n):
-        gi = 0.0
-        for c in range(d):
-            gi += grad[i, c] * grad[i, c]
-        gi = math.sqrt(gi)
+        gi = norm[i]
         if gi <= threshold:
             continue
         M = np.zeros((d, d))
         D = np.zeros((d, d))
         for e in range(rs[i], rs[i + 1]):
             j = idx[e]
-            gj = 0.0
-            for c in range(d):
-                gj += grad[j, c] * grad[j, c]
-            gj = math.sqrt(gj)
+            gj = norm[j]
             if gj <= threshold:
                 continue
             for a in range(d):
@@ -347,12 +343,12 @@ def curvature(grad, x, rs, idx, G, threshold, kappa_max):
 
 
 @nb.njit(cache=True, parallel=True)
-def band_average(kappa, grad, rs, idx, W, threshold):
-    """κ̄_i = Σ_j W_ij |∇c_j| κ_j / Σ_j W_ij |∇c_j| over the band neighbours (self
-    included): the curvature smoothed along the band, weighted towards its middle rows,
+def band_average(kappa, norm, rs, idx, W):
+    """κ̄_i = Σ_j W_ij |∇c_j| κ_j / Σ_j W_ij |∇c_j| (``norm`` = |∇c|) over the band
+    neighbours, those with κ ≠ 0 (self included): the curvature smoothed along the band, weighted towards its middle rows,
     whose normals are least disturbed when the particles disorder (parasitic currents are
     driven by the curvature's particle-scale noise)."""
-    n, d = grad.shape
+    n = len(kappa)
     out = np.zeros(n)
     for i in nb.prange(n):
         if kappa[i] == 0.0:
@@ -363,10 +359,7 @@ def band_average(kappa, grad, rs, idx, W, threshold):
             j = idx[e]
             if kappa[j] == 0.0:
                 continue
-            gj = 0.0
-            for c in range(d):
-                gj += grad[j, c] * grad[j, c]
-            w = W[e] * math.sqrt(gj)
+            w = W[e] * norm[j]
             num += w * kappa[j]
             den += w
         out[i] = num / den if den > 0.0 else kappa[i]
@@ -398,8 +391,10 @@ def curvature_acceleration(x, phase, rho0, C, rs, idx, G, W, V0, h):
             if C[a, b] <= 0.0:
                 continue
             grad = colour_gradient(phase, a, b, rs, idx, G, V0)
-            kappa = curvature(grad, x, rs, idx, G, BAND_THRESHOLD / h, (x.shape[1] - 1) / radius)
-            kappa = band_average(kappa, grad, rs, idx, W, BAND_THRESHOLD / h)
+            norm = np.sqrt((grad * grad).sum(1))
+            kappa = curvature(grad, norm, x, rs, idx, G, BAND_THRESHOLD / h,
+                              (x.shape[1] - 1) / radius)
+            kappa = band_average(kappa, norm, rs, idx, W)
             out += (C[a, b] * kappa / rho0)[:, None] * grad
     return out
 
