@@ -31,13 +31,13 @@ def test_fronts_on_synthetic_currents():
 
 
 def test_quick_lock_exchange_runs():
-    """The quick 2-D variant (r = 10 mm, about 25 s on 2 cores) returns finite Froude
+    """The quick 2-D variant (r = 10 mm, about 85 s on 2 cores) returns finite Froude
     numbers and its checks, run with the closed-container settings (the hydrostatic
-    reference, a tenth of the default damping; means of three starts), and information rows
-    with XSPH and artificial viscosity off and with the given settings as they are. At
-    10 mm halving that damping changed the heavy front by +4.9 % before suction and −6.5 %
-    with it (the 5 % check fails at 10 mm; −0.9 % at 5 mm, the full row), against +92 % with
-    the open-scene defaults;
+    reference, a tenth of the default damping; means of ten starts, the damping check's
+    ensemble), and information rows with XSPH and artificial viscosity off and with the
+    given settings as they are. At 10 mm halving that damping changes the heavy front by
+    +1.6 % over ten starts (three gave −6.5 %: one run changes by 12 % sd, docs/sph.md
+    "Closed containers"), against +92 % with the open-scene defaults;
     without the reference and with the full damping the heavy front crawls (Fr 0.08
     against 0.39, docs/sph.md "Closed containers"); with the open scenes' defaults as they
     are (full damping, the surface-following reference with suction) Fr 0.28 against 0.40
@@ -47,9 +47,9 @@ def test_quick_lock_exchange_runs():
     assert len(checks) == 3
     assert all(math.isfinite(r.measured) for r in rows)
     halving = next(r for r in checks if r.quantity.startswith("heavy speed change"))
-    assert abs(halving.measured) < 0.1, halving
+    assert halving.passed, halving
     fr = {r.quantity: r.measured for r in rows if r.quantity.startswith("Fr")}
-    heavy = fr["Fr heavy front (floor), mean of 3 starts"]
+    heavy = fr["Fr heavy front (floor), mean of 10 starts"]
     given = fr["Fr heavy / light, given settings as they are"]
     assert all(f > 0 for f in fr.values()) and len(fr) == 5, fr
     assert heavy > 1.25 * given, fr

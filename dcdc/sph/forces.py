@@ -36,7 +36,7 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
             a += csf_acceleration(s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.G, nbh.Sb, s.V0)
         elif model == "curvature":
             a += curvature_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.G, nbh.W,
-                                        s.V0, s.h)
+                                        nbh.Sb, s.V0, s.h)
         else:
             a += pairwise_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, s.h, s.V0)
     if surface_tension > 0:
