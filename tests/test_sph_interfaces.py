@@ -231,16 +231,11 @@ def test_background_pressure_lifts_the_csf_laplace_jump():
 
 # ---------------------------------------------------------------------------- "curvature" model
 def _curvature_fields(dim, densities=(1000.0, 1000.0), sigma=1.0):
-    import math
-    from dcdc.sph.interfaces import (BAND_THRESHOLD, band_average, coefficients, colour_gradient,
-                                     curvature, curvature_acceleration)
+    from dcdc.sph.cases import drop_radius
+    from dcdc.sph.interfaces import coefficients, curvature_acceleration, pair_curvature
     x, dist, phase, nbh, h, V0 = _lattice_drop(dim, R=0.09 if dim == 2 else 0.07)
-    n = int(phase.sum())
-    R = (n * V0 / math.pi) ** 0.5 if dim == 2 else (3 * n * V0 / (4 * math.pi)) ** (1 / 3)
-    grad = colour_gradient(phase, 0, 1, nbh.rs, nbh.idx, nbh.G, V0)
-    norm = np.linalg.norm(grad, axis=1)
-    kappa = band_average(curvature(grad, norm, x, nbh.rs, nbh.idx, nbh.G, BAND_THRESHOLD / h,
-                                   (dim - 1) / 0.01), norm, nbh.rs, nbh.idx, nbh.W)
+    R = drop_radius(int(phase.sum()), V0, dim)
+    grad, kappa = pair_curvature(x, phase, 0, 1, nbh.rs, nbh.idx, nbh.G, nbh.W, nbh.Sb, V0, h)
     ph = [Phase("amb", densities[0]), Phase("drop", densities[1])]
     C = coefficients("curvature", {"amb/drop": sigma}, ph, h, V0, dim)
     rho0 = np.array(densities)[phase]

@@ -569,7 +569,8 @@ def laplace_run(dim: int, r: float, cfg: SPHConfig, sigma: float = 10.0,
     run(sim, duration, sample)
     dp = float(np.mean(p_in) - np.mean(p_out))
     start = (math.sqrt(2) if dim == 2 else math.sqrt(3)) * _laplace_half(dim) / R
-    return {"jump": dp / ((1 if dim == 2 else 2) * sigma / R), "shape": max_radius_ratio(sy.x[drop], r, R),
+    return {"jump": dp / ((1 if dim == 2 else 2) * sigma / R),
+            "shape": max_radius_ratio(sy.x[drop], r, R),
             "start": start, "N": sy.n_fluid, "R": R}
 
 
@@ -644,16 +645,17 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     Every closed-settings number is the mean of an ensemble of starts
     (:func:`lock_exchange_ensemble`): three, ten (:data:`DAMPING_SEEDS`) where the damping is
     halved and for the same radius without. Quick: r = 10 mm with and without the halving;
-    full: r = 7 / 5 / 3.5 mm, the halving and the information rows at 5 mm. 2-D only: in 3-D the
-    case returns an information row (a 3-D tank a few particles deep would add side walls,
+    full: r = 7 / 5 / 3.5 mm, the halving and the information rows at 5 mm. 2-D only: in 3-D
+    the case returns an information row (a 3-D tank a few particles deep would add side walls,
     whose grip on buoyancy is a known limit, docs/sph.md)."""
     if dim != 2:
         return [Row("lock exchange 3D", "not run (2-D only)", float("nan"), "-", "info", None)]
     radii = [0.01] if quick else [0.007, 0.005, 0.0035]
-    r_half = radii[0] if quick else 0.005  # where the damping is halved (cost: 3 runs each)
+    r_half = radii[0] if quick else 0.005  # where the damping is halved (ten runs each)
     closed = closed_container(cfg.to_dict(), LOCK_RHO[1])
     closed_cfg = SPHConfig.from_dict(closed)
-    res = {r: lock_exchange_ensemble(r, closed_cfg, DAMPING_SEEDS if r == r_half else ENSEMBLE_SEEDS)
+    res = {r: lock_exchange_ensemble(r, closed_cfg,
+                                     DAMPING_SEEDS if r == r_half else ENSEMBLE_SEEDS)
            for r in radii}
     low = lock_exchange_ensemble(r_half, _halved_damping(closed), DAMPING_SEEDS)
     off = lock_exchange_run(r_half, SPHConfig.from_dict({**closed, "xsph": 0.0, "viscosity": 0.0}))
@@ -675,9 +677,8 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     c = f"lock exchange 1.5:1 2D (r={r_half * 1000:g} mm)"
     dh = low["heavy"] / res[r_half]["heavy"] - 1.0
     dl = low["light"] / res[r_half]["light"] - 1.0
-    rows += [Row(c, f"heavy speed change, xsph & viscosity / 2, mean of {low['runs']} starts", dh,
-                 "0", "< 5 %",
-                 bool(abs(dh) < 0.05)),
+    rows += [Row(c, f"heavy speed change, xsph & viscosity / 2, mean of {low['runs']} starts",
+                 dh, "0", "< 5 %", bool(abs(dh) < 0.05)),
              Row(c, "light speed change, xsph & viscosity / 2", dl, "0", "info", None),
              Row(c, "Fr heavy / light, xsph & viscosity off", off["fr_heavy"], "0.5",
                  f"light {off['fr_light']:.3f}; info", None)]

@@ -6,11 +6,11 @@ from dataclasses import MISSING, asdict, dataclass, field, fields
 import math
 
 from ..errors import DcdcError
+from .interfaces import MODELS as INTERFACIAL_MODELS
 from .reference import AUTO_REFERENCE
 
 SOLVERS = ("dfsph", "wcsph")
 BOUNDARIES = ("map", "particles")
-INTERFACIAL_MODELS = ("pairwise", "csf", "curvature")
 ON_ESCAPE = ("error", "remove")
 
 

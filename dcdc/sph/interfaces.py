@@ -17,8 +17,8 @@ per volume
 
 with L the lattice normalisation below; where the interface meets a wall ∇c loses its
 wall-normal part (a contact angle of 90°, :func:`wall_contact`). The force is normal to the
-interface: no tension
-along the band, so nothing clumps and no background pressure is needed. It is a gradient
+interface: no tension along the band, so nothing clumps and no background pressure is
+needed. It is a gradient
 (of σκc/L) wherever κ is uniform, the gradient in the pressure force's difference form, so
 a pressure step σκ balances it: measured on the validation drops (2.5 s, no gravity)
 Δp = 0.93 / 0.92 σ/R (2-D quick / full) and 0.92 / 0.93 · 2σ/R (3-D quick / full),
@@ -95,6 +95,13 @@ from ..errors import DcdcError
 from .kernels import cubic_values, sigma, w_of_r
 
 MODELS = ("pairwise", "csf", "curvature")
+# the continuum models: normalised by the lattice's ∫|∇c| (:func:`gradient_integral`) and
+# bounded by Brackbill et al.'s capillary time step (:func:`stable_dt`)
+CSF_MODELS = ("csf", "curvature")
+# |∇c| h above which a particle is in the interface band of "curvature" (Morris 2000,
+# "Simulating surface tension with smoothed particle hydrodynamics", Int. J. Numer. Meth.
+# Fluids 33, §3: 0.01/h)
+BAND_THRESHOLD = 0.01
 
 
 # ---------------------------------------------------------------------------- coefficients
@@ -186,9 +193,7 @@ def coefficients(model: str, tensions: dict, phases, h: float, V0: float,
     if sig is None:
         return None
     radius = V0 ** (1.0 / dim) / 2.0
-    if model == "csf":
-        return sig / gradient_integral(radius, h, dim, V0)
-    if model == "curvature":
+    if model in CSF_MODELS:
         return sig / gradient_integral(radius, h, dim, V0)
     return sig / lattice_across_sum(radius, h, dim)
 
@@ -301,8 +306,8 @@ def colour_gradient(phase, a, b, rs, idx, G, V0):
 
 @nb.njit(cache=True, parallel=True)
 def curvature(grad, norm, x, rs, idx, G, threshold, kappa_max):
-    """κ_i = −∇·n̂_i (n̂ = ∇c/|∇c|, ``norm`` = |∇c|) from the kernel-gradient-corrected SPH gradient (Bonet &
-    Lok 1999): ∇n̂_i = D_i M_i⁻¹ with D_i = Σ_j (n̂_j − n̂_i) ⊗ G_ij and
+    """κ_i = −∇·n̂_i (n̂ = ∇c/|∇c|, ``norm`` = |∇c|) from the kernel-gradient-corrected SPH
+    gradient (Bonet & Lok 1999): ∇n̂_i = D_i M_i⁻¹ with D_i = Σ_j (n̂_j − n̂_i) ⊗ G_ij and
     M_i = Σ_j (x_j − x_i) ⊗ G_ij, both sums over the neighbours whose |∇c| exceeds
     ``threshold`` (the interface band), so that it is exact for a linear normal field however
     lopsided the band's truncated support, bounded by ``kappa_max``. Adami, Hu & Adams
@@ -347,9 +352,9 @@ def curvature(grad, norm, x, rs, idx, G, threshold, kappa_max):
 @nb.njit(cache=True, parallel=True)
 def band_average(kappa, norm, rs, idx, W):
     """κ̄_i = Σ_j W_ij |∇c_j| κ_j / Σ_j W_ij |∇c_j| (``norm`` = |∇c|) over the band
-    neighbours, those with κ ≠ 0 (self included): the curvature smoothed along the band, weighted towards its middle rows,
-    whose normals are least disturbed when the particles disorder (parasitic currents are
-    driven by the curvature's particle-scale noise)."""
+    neighbours, those with κ ≠ 0 (self included): the curvature smoothed along the band,
+    weighted towards its middle rows, whose normals are least disturbed when the particles
+    disorder (parasitic currents are driven by the curvature's particle-scale noise)."""
     n = len(kappa)
     out = np.zeros(n)
     for i in nb.prange(n):
@@ -388,6 +393,18 @@ def wall_contact(grad, Sb, h):
     return out
 
 
+def pair_curvature(x, phase, a, b, rs, idx, G, W, Sb, V0, h):
+    """The colour gradient ∇c of the pair (a, b) (:func:`colour_gradient`, the walls' contact
+    angle by :func:`wall_contact`) and the band's smoothed curvature κ̄ (:func:`curvature`
+    over |∇c| > :data:`BAND_THRESHOLD`/h, bounded by a single particle's (d − 1)/r, then
+    :func:`band_average`)."""
+    radius = 0.5 * V0 ** (1.0 / x.shape[1])  # the particle radius r (V0 ≈ (2r)^d)
+    grad = wall_contact(colour_gradient(phase, a, b, rs, idx, G, V0), Sb, h)
+    norm = np.sqrt((grad * grad).sum(1))
+    kappa = curvature(grad, norm, x, rs, idx, G, BAND_THRESHOLD / h, (x.shape[1] - 1) / radius)
+    return grad, band_average(kappa, norm, rs, idx, W)
+
+
 def curvature_acceleration(x, phase, rho0, C, rs, idx, G, W, Sb, V0, h):
     """"curvature": the continuum surface force of Brackbill, Kothe & Zemach (1992) per phase
     pair (a, b) with σ_ab > 0 (``C`` = σ_ab / L, :func:`coefficients`), f_i = σ κ̄_i ∇c_i
@@ -400,31 +417,17 @@ def curvature_acceleration(x, phase, rho0, C, rs, idx, G, W, Sb, V0, h):
     eq. 43, f ρ_i/ρ̄, the same acceleration on both sides) leaves the light side of a heavy
     drop too little force against the drop's pressure, which the symmetric pressure force
     passes to it divided by its own small density: an empty row opens between the phases
-    and the jump falls to 0.43 (2-D, drop 1000 in 100; docs/sph.md). ∇c:
-    :func:`colour_gradient` with the walls' contact angle of 90° (:func:`wall_contact`); κ̄:
-    :func:`curvature` over the band |∇c| > 0.01/h
-    (:data:`BAND_THRESHOLD`, Morris 2000) smoothed by :func:`band_average`. Not pairwise
-    antisymmetric: the net force on a closed drop is zero only as far as the discrete
-    ∮ κ n̂ dA is."""
+    and the jump falls to 0.43 (2-D, drop 1000 in 100; docs/sph.md). ∇c and κ̄:
+    :func:`pair_curvature`. Not pairwise antisymmetric: the net force on a closed drop is
+    zero only as far as the discrete ∮ κ n̂ dA is."""
     out = np.zeros_like(x)
-    radius = 0.5 * V0 ** (1.0 / x.shape[1])  # the particle radius r (V0 ≈ (2r)^d)
     P = C.shape[0]
     for a in range(P):
         for b in range(a + 1, P):
-            if C[a, b] <= 0.0:
-                continue
-            grad = wall_contact(colour_gradient(phase, a, b, rs, idx, G, V0), Sb, h)
-            norm = np.sqrt((grad * grad).sum(1))
-            kappa = curvature(grad, norm, x, rs, idx, G, BAND_THRESHOLD / h,
-                              (x.shape[1] - 1) / radius)
-            kappa = band_average(kappa, norm, rs, idx, W)
-            out += (C[a, b] * kappa / rho0)[:, None] * grad
+            if C[a, b] > 0.0:
+                grad, kappa = pair_curvature(x, phase, a, b, rs, idx, G, W, Sb, V0, h)
+                out += (C[a, b] * kappa / rho0)[:, None] * grad
     return out
-
-
-# |∇c| h above which a particle is in the interface band (Morris 2000, "Simulating surface
-# tension with smoothed particle hydrodynamics", Int. J. Numer. Meth. Fluids 33, §3: 0.01/h)
-BAND_THRESHOLD = 0.01
 
 
 # ---------------------------------------------------------------------------- "pairwise" kernel

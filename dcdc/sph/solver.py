@@ -90,9 +90,9 @@ class Simulator:
                      if cfg.reference_level is None else cfg.reference_level)
             self._reference = (rho_ref, level, 0.0)
             self._fill = level  # reference_surface: the level while no particle is at a surface
-        # Brackbill et al.'s capillary bound is the CSF's; "pairwise" keeps its old steps
+        # Brackbill et al.'s capillary bound is the continuum models'; "pairwise" keeps its steps
         self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
-                              if cfg.interfacial_model in ("csf", "curvature") else math.inf)
+                              if cfg.interfacial_model in interfaces.CSF_MODELS else math.inf)
         self.stats: dict = {}
         self.totals = {"frames": 0, "substeps": 0, "iterations": 0, "divergence_iterations": 0,
                        "max_density_error": 0.0, "removed": 0}
