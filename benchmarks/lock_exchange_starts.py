@@ -2,11 +2,11 @@
 "Closed containers", "Ten starts for the damping check"): ten starts of
 :func:`dcdc.sph.cases.lock_exchange_run` at r = 10 mm with the closed settings and with their
 damping halved (the paired change of each start), then six starts each with one setting
-changed (time step, solver tolerances, interface damping, kernel support).
+changed (time step, solver tolerances, interface damping, kernel support 5 / 3.5 / 3).
 
     python benchmarks/lock_exchange_starts.py --json benchmarks/lock_exchange_starts_10mm.json
 
-About 3 min on 2 cores.
+About 4 min on 2 cores.
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from dcdc.sph.config import SPHConfig
 
 R = 0.01
 VARIANTS = [{"cfl": 0.2}, {"density_tolerance": 1e-4, "divergence_tolerance": 1e-4},
-            {"interface_damping": False}, {"support": 5}]
+            {"interface_damping": False}, {"support": 5}, {"support": 3.5}, {"support": 3}]
 
 
 def fronts(cfg: SPHConfig, seed: int) -> tuple[float, float]:

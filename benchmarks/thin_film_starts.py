@@ -5,9 +5,14 @@ heavier fluid after 1 s, and their ratio (docs/sph.md, "Why light fluid stays un
 fluid"; the row asks 0.67-1.5).
 
     python benchmarks/thin_film_starts.py 0 1 2 >> benchmarks/thin_film_starts.jsonl
+    python benchmarks/thin_film_starts.py --r 0.0075 0 1 2 3 4 5 >> benchmarks/thin_film_starts.jsonl
+
+``--r`` sets the particle radius (default 5 mm, the full row's; the quick 2-D row's is
+7.5 mm, the film 1⅓ rows; 10 mm makes it one row). Records without ``r`` are at 5 mm.
 """
 from __future__ import annotations
 
+import argparse
 import contextlib
 import json
 import sys
@@ -40,11 +45,15 @@ def perturbed_tanks(start: int):
 
 
 def main(argv: list[str]) -> None:
-    for start in [int(a) for a in argv] or [0]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--r", type=float, default=0.005, help="particle radius [m]")
+    ap.add_argument("starts", type=int, nargs="*", default=[0])
+    args = ap.parse_args(argv)
+    for start in args.starts:
         t = time.time()
         with perturbed_tanks(start):
-            runs = cases.film_pair(2, 0.005, SPHConfig())
-        print(json.dumps({"start": start, "ratio": round(runs["ratio"], 3),
+            runs = cases.film_pair(2, args.r, SPHConfig())
+        print(json.dumps({"r": args.r, "start": start, "ratio": round(runs["ratio"], 3),
                           "rise_deep_mm": round(1e3 * runs["deep"]["rise"], 1),
                           "rise_shallow_mm": round(1e3 * runs["shallow"]["rise"], 1),
                           "left_deep": round(runs["deep"]["left"], 3),

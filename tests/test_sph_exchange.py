@@ -4,7 +4,7 @@ import math
 import numpy as np
 
 from dcdc.sph import SPHConfig
-from dcdc.sph.cases import CASES, exchange_fronts, front_speed
+from dcdc.sph.cases import CASES, exchange_fronts, extrapolate_to_zero, front_speed
 
 
 def test_fronts_on_synthetic_currents():
@@ -28,6 +28,24 @@ def test_fronts_on_synthetic_currents():
         fh.append(a)
         fl.append(b)
     assert abs(front_speed(t, fh) - 0.4) < 0.05 and abs(front_speed(t, fl) + 0.3) < 0.05
+
+
+def test_extrapolation_to_zero_radius():
+    """Exact on data that follow the assumed order; with noise the intercept lands within
+    three of its standard errors, and the error shrinks as the points' errors do."""
+    radii = [0.007, 0.005, 0.0035]
+    for order in (1, 2):
+        exact = [0.5 - 3.0 * r ** order for r in radii]
+        a, se = extrapolate_to_zero(radii, exact, [0.01] * 3, order=order)
+        assert abs(a - 0.5) < 1e-9 and se > 0
+    rng = np.random.default_rng(0)
+    hits = 0
+    for _ in range(200):
+        noisy = [0.5 - 12.0 * r + rng.normal(0, 0.01) for r in radii]
+        a, se = extrapolate_to_zero(radii, noisy, [0.01] * 3)
+        hits += abs(a - 0.5) < 3 * se
+    assert hits >= 190, hits
+    assert extrapolate_to_zero(radii, exact, [0.001] * 3)[1] < se / 5
 
 
 def test_quick_lock_exchange_runs():
