@@ -46,6 +46,9 @@ def test_extrapolation_to_zero_radius():
         hits += abs(a - 0.5) < 3 * se
     assert hits >= 190, hits
     assert extrapolate_to_zero(radii, exact, [0.001] * 3)[1] < se / 5
+    # one start per radius: no errors to weigh by, the plain line and no error claimed
+    a, se = extrapolate_to_zero(radii, [0.5 - 12.0 * r for r in radii], [float("nan")] * 3)
+    assert abs(a - 0.5) < 1e-9 and math.isnan(se)
 
 
 def test_quick_lock_exchange_runs():

@@ -281,14 +281,16 @@ def extrapolate_to_zero(radii, values, errors, order: int = 1) -> tuple[float, f
     weighted least-squares fit ``value = a + b r^order`` (weights 1 / error²) and its
     intercept ``a`` = the value at r -> 0, with the intercept's standard error from
     ``errors`` (each value's standard error). ``order`` is the assumed convergence order
-    (SPH on disordered particles: 1; on a lattice 2)."""
+    (SPH on disordered particles: 1; on a lattice 2). Without usable errors (one start per
+    radius: NaN; or all zero) the points weigh alike and the standard error is NaN."""
     r = np.asarray(radii, dtype=float) ** order
     y, e = np.asarray(values, dtype=float), np.asarray(errors, dtype=float)
-    w = 1.0 / np.maximum(e, 1e-12) ** 2
+    usable = bool(np.all(np.isfinite(e)) and np.all(e > 0))
+    w = 1.0 / e ** 2 if usable else np.ones_like(y)
     A = np.stack([np.ones_like(r), r], axis=1)
     cov = np.linalg.inv(A.T @ (w[:, None] * A))
     a, _ = cov @ (A.T @ (w * y))
-    return float(a), float(np.sqrt(cov[0, 0]))
+    return float(a), float(np.sqrt(cov[0, 0])) if usable else float("nan")
 
 
 def lock_exchange_ensemble(r: float, cfg: SPHConfig, seeds=ENSEMBLE_SEEDS) -> dict:
