@@ -7,8 +7,8 @@ fluid"; the row asks 0.67-1.5).
     python benchmarks/thin_film_starts.py 0 1 2 >> benchmarks/thin_film_starts.jsonl
     python benchmarks/thin_film_starts.py --r 0.0075 0 1 2 3 4 5 >> benchmarks/thin_film_starts.jsonl
 
-``--r`` sets the particle radius (default 5 mm, the full row's; the quick 2-D row's is
-7.5 mm, the film 1⅓ rows; 10 mm makes it one row). Records without ``r`` are at 5 mm.
+``--r`` sets the particle radius (default 5 mm, the 2-D row's, quick and full: the film two
+rows thick; 7.5 mm makes it 1⅓ rows, 10 mm one). Records without ``r`` are at 5 mm.
 """
 from __future__ import annotations
 
