@@ -330,3 +330,37 @@ def test_a_flat_interface_meeting_walls_feels_no_curvature_force(dim):
     plain = tank()
     Simulator(plain, SPHConfig()).run(0.5, 0.02)
     assert np.linalg.norm(sy.v, axis=1).max() < 2.0 * np.linalg.norm(plain.v, axis=1).max() + 0.01
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_pairwise_wall_images_cancel_the_walls_push_on_a_flat_interface(dim):
+    """Two layers at rest in a closed tank with the "pairwise" repulsion: without the walls'
+    images the unlike neighbours push the particles where the interface meets a side wall
+    into the wall (the wall is a hole in the repulsion); with them (the method of images, a
+    90° contact angle, :func:`pairwise_wall_images`) the wall-normal push is gone there up
+    to the volume map's error, and nothing changes away from the walls."""
+    from dcdc.sph.cases import tank_system
+    from dcdc.sph.interfaces import pairwise_acceleration, pairwise_wall_images, wall_image_table
+    size = [0.3, 0.2] + ([0.15] if dim == 3 else [])
+    sy = tank_system(dim, 0.0125, size, [(np.zeros(3), size + [0] * (3 - dim),
+                                          lambda p: (p[:, 1] > 0.1).astype(int))],
+                     [Phase("heavy", 2000.0), Phase("light", 1000.0)], wall_height=0.2,
+                     name="layers", closed=True)
+    sim = Simulator(sy, SPHConfig(interfacial_tension={"heavy/light": 10.0},
+                                  interfacial_model="pairwise"))
+    s = sim._state(None)
+    nbh = sim._neighbourhood(s)
+    K = sim._interface[1]
+    plain = pairwise_acceleration(s.x, s.phase, s.rho0, K, nbh.rs, nbh.idx, s.h, s.V0)
+    images = pairwise_wall_images(s.x, s.phase, s.rho0, K, nbh.rs, nbh.idx, nbh.W, nbh.psi,
+                                  nbh.Sb, s.V0, s.h, *wall_image_table(s.h, dim, s.V0))
+    side = np.minimum(s.x[:, 0], size[0] - s.x[:, 0]) < s.h  # next to the side walls
+    away = np.min(np.minimum(s.x, np.asarray(size) - s.x), 1) > s.h
+    others = np.ones(len(s.x), bool)
+    if dim == 3:  # leave out the corners with the front and back walls (one plane is mirrored)
+        others = np.minimum(s.x[:, 2], size[2] - s.x[:, 2]) > s.h
+    band = (np.abs(s.x[:, 1] - 0.1) < s.h) & side & others
+    inward = np.abs(plain[band, 0]).max()
+    assert inward > 0.1 * np.abs(plain).max()  # the hole in the repulsion is felt
+    assert np.abs((plain + images)[band, 0]).max() < 0.05 * inward
+    assert np.abs(images[away]).max() == 0.0

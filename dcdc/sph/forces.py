@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .interfaces import csf_acceleration, curvature_acceleration, pairwise_acceleration
+from .interfaces import (csf_acceleration, curvature_acceleration, pairwise_acceleration,
+                         pairwise_wall_images, wall_image_table)
 from .kernels import lattice_second_moment
 from .neighbourhood import Neighbourhood
 from .reference import reference_acceleration
@@ -39,6 +40,8 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
                                         nbh.Sb, s.V0, s.h)
         else:
             a += pairwise_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, s.h, s.V0)
+            a += pairwise_wall_images(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.W, nbh.psi,
+                                      nbh.Sb, s.V0, s.h, *wall_image_table(s.h, s.x.shape[1], s.V0))
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)
     if background_pressure > 0:
