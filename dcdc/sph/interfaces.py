@@ -82,7 +82,7 @@ like ones squeezed to 0.8) and its force is carried as pressure by both sides al
 mirrored into the wall (:func:`pairwise_wall_images`, since session 28): a contact angle of
 90°, as the other models have; without the images the wall was a hole in the repulsion and
 unlike neighbours pressed a particle into it (the cocktail's last oil at the glass: 3-D 2.6 %
-→ 0 %, docs/sph.md, "Walls for the pairwise tension").
+→ 0.25 %, docs/sph.md, "Walls for the pairwise tension").
 
 Checked against the Young-Laplace jump of a 2-D and a 3-D droplet
 (``dcdc validate-sph --case laplace``; ``benchmarks/laplace_curvature.py`` for refinement,
