@@ -482,13 +482,15 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
     with n̂ = -S_b/|S_b| the wall normal into the fluid (S_b = ∇Ψ_b, the walls' kernel
     gradient) and z_i the distance from the wall's surface, read from the walls' share of ψ,
     Ψ_b = ψ_i - V0 Σ_j W_ij, on the flat half-space's profile (:func:`wall_image_table`:
-    ``psi_table`` increasing, ``z_table`` the matching distances). Mirror symmetry across the wall is a contact angle of 90°, as
-    :func:`wall_contact` gives the "curvature" model: an interface meeting the wall at right
+    ``psi_table`` increasing, ``z_table`` the matching distances). Mirror symmetry across the
+    wall is a contact angle of 90°, as :func:`wall_contact` gives the "curvature" model: an interface meeting the wall at right
     angles feels no force along the wall normal, and a particle at the wall under unlike
     fluid is no longer pressed into it by the neighbours on its fluid side alone (without the
     images the wall is a hole in the repulsion, so unlike neighbours push the particle into
     it; docs/sph.md, "Walls for the pairwise tension"). Only the nearest wall's plane is
-    reflected (a corner gets one of its two walls). The images' reaction goes to the wall."""
+    reflected (a corner gets one of its two walls), z is exact for flat walls of the plain
+    volume map (on curved walls, wall particles or a balanced wall it is approximate), and
+    the images' reaction goes to the wall."""
     n, d = x.shape
     out = np.zeros((n, d))
     for i in nb.prange(n):
