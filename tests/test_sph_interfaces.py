@@ -303,22 +303,25 @@ def test_curvature_model_separates_a_random_emulsion_without_blowing_up():
     assert metrics.neighbour_purity(sy.x, sy.phase, 3.5 * r) > before + 0.05
 
 
+def _layers(dim, size=None):
+    """Two layers at rest in a closed tank (2:1, the interface at 0.1 m, r = 1.25 cm), by
+    default 0.3 × 0.2 (× 0.1) m."""
+    from dcdc.sph.cases import tank_system
+    size = size or [0.3, 0.2] + ([0.1] if dim == 3 else [])
+    return tank_system(dim, 0.0125, size, [(np.zeros(3), list(size) + [0] * (3 - dim),
+                                            lambda p: (p[:, 1] > 0.1).astype(int))],
+                       [Phase("heavy", 2000.0), Phase("light", 1000.0)], wall_height=0.2,
+                       name="layers", closed=True)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_flat_interface_meeting_walls_feels_no_curvature_force(dim):
     """Two layers at rest in a closed tank: the interface is flat, so the capillary force is
     zero, also where it meets the walls (contact angle 90°, :func:`wall_contact`; without it
     the colour gradient tilted by 10° at the walls and the tank at rest flowed at 0.56 m/s
     after 1 s, 3-D); after 0.5 s the tank is as quiet as without tension."""
-    from dcdc.sph.cases import tank_system
     from dcdc.sph.interfaces import curvature_acceleration
-    size = [0.3, 0.2] + ([0.1] if dim == 3 else [])
-
-    def tank():
-        return tank_system(dim, 0.0125, size, [(np.zeros(3), size + [0] * (3 - dim),
-                                                lambda p: (p[:, 1] > 0.1).astype(int))],
-                           [Phase("heavy", 2000.0), Phase("light", 1000.0)], wall_height=0.2,
-                           name="layers", closed=True)
-    sy = tank()
+    sy = _layers(dim)
     sim = Simulator(sy, SPHConfig(interfacial_tension={"heavy/light": 10.0}))
     s = sim._state(None)
     nbh = sim._neighbourhood(s)
@@ -327,7 +330,7 @@ def test_a_flat_interface_meeting_walls_feels_no_curvature_force(dim):
     scale = 10.0 / (1000.0 * s.h * s.h)  # σ / (ρ h²): the force of a curvature 1/h
     assert np.abs(a).max() < 0.01 * scale
     sim.run(0.5, 0.02)
-    plain = tank()
+    plain = _layers(dim)
     Simulator(plain, SPHConfig()).run(0.5, 0.02)
     assert np.linalg.norm(sy.v, axis=1).max() < 2.0 * np.linalg.norm(plain.v, axis=1).max() + 0.01
 
@@ -339,13 +342,9 @@ def test_pairwise_wall_images_cancel_the_walls_push_on_a_flat_interface(dim):
     into the wall (the wall is a hole in the repulsion); with them (the method of images, a
     90° contact angle, :func:`pairwise_wall_images`) the wall-normal push is gone there up
     to the volume map's error, and nothing changes away from the walls."""
-    from dcdc.sph.cases import tank_system
     from dcdc.sph.interfaces import pairwise_acceleration, pairwise_wall_images, wall_image_table
     size = [0.3, 0.2] + ([0.15] if dim == 3 else [])
-    sy = tank_system(dim, 0.0125, size, [(np.zeros(3), size + [0] * (3 - dim),
-                                          lambda p: (p[:, 1] > 0.1).astype(int))],
-                     [Phase("heavy", 2000.0), Phase("light", 1000.0)], wall_height=0.2,
-                     name="layers", closed=True)
+    sy = _layers(dim, size)
     sim = Simulator(sy, SPHConfig(interfacial_tension={"heavy/light": 10.0},
                                   interfacial_model="pairwise"))
     s = sim._state(None)

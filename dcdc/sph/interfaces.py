@@ -506,7 +506,7 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
         if psi_b <= 1e-4:
             continue
         z = np.interp(psi_b, psi_table, z_table)
-        sn = math.sqrt(s2)
+        sn = math.sqrt(s2)  # n̂ = -S_b / sn
         pi = phase[i]
         m = rho0[i] * V0
         for e in range(rs[i], rs[i + 1]):
@@ -514,19 +514,20 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
             k = K[pi, phase[j]]
             if j == i or k == 0.0:
                 continue
-            zeta = 0.0
+            zeta = 0.0  # y·n̂
             for a in range(d):
                 zeta -= (x[j, a] - x[i, a]) * Sb[i, a] / sn
-            r2 = 0.0
+            shift = 2.0 * (zeta + z) / sn  # x_j' - x_i = y + shift S_b (scalar loops: no
+            r2 = 0.0                       # small arrays allocated per pair in the hot path)
             for a in range(d):
-                t = x[j, a] - x[i, a] + 2.0 * (zeta + z) * Sb[i, a] / sn
+                t = x[j, a] - x[i, a] + shift * Sb[i, a]
                 r2 += t * t
             r = math.sqrt(r2)
             if r < 1e-9 * h or r >= h:
                 continue
             f = k * w_of_r(r, h, 1.0) / (m * r)
             for a in range(d):
-                out[i, a] += f * (x[j, a] - x[i, a] + 2.0 * (zeta + z) * Sb[i, a] / sn)
+                out[i, a] += f * (x[j, a] - x[i, a] + shift * Sb[i, a])
     return out
 
 
