@@ -617,6 +617,57 @@ def laplace(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     ]
 
 
+def cap_contact_angle(x: np.ndarray, phase: np.ndarray, drop: int, r: float) -> float:
+    """Contact angle [degrees, through the drop] of a cap-shaped drop of phase ``drop`` on
+    the floor y = 0: a least-squares circle (sphere) through the drop's particles that have
+    an unlike neighbour within 4.5 r (the "pairwise" tension keeps unlike neighbours about
+    two spacings apart) more than 2.5 r above the floor, whose centre height c and radius
+    R (+ r, the particles' half spacing) give cos θ = −c / R."""
+    from ..neighbors import radius_search
+    nb = radius_search(x, 4.5 * r, exclude_self=True)
+    rec = nb.receivers()
+    unlike = np.bincount(rec, weights=(phase[nb.index] != phase[rec]).astype(float),
+                         minlength=len(x))
+    P = x[(phase == drop) & (unlike > 0) & (x[:, 1] > 2.5 * r)]
+    d = x.shape[1]
+    sol = np.linalg.lstsq(np.c_[2.0 * P, np.ones(len(P))], (P ** 2).sum(1), rcond=None)[0]
+    centre = sol[:d]
+    R = math.sqrt(sol[d] + centre @ centre) + r
+    return math.degrees(math.acos(min(1.0, max(-1.0, -centre[1] / R))))
+
+
+def sessile_drop_run(dim: int, theta: float, r: float = 0.005, R: float = 0.08,
+                     sigma: float = 1.0, duration: float = 3.0, settings: dict | None = None,
+                     every: float = 0.25) -> dict:
+    """A half disc (hemisphere) of phase "drop" of radius ``R`` on the floor of a closed
+    0.5 × 0.25 (× 0.5) m box of phase "ambient", equal densities, no gravity, "pairwise"
+    tension σ and the walls' tensions that make Young's angle ``theta`` [degrees, through
+    the drop]: cos θ = (σ_w,ambient − σ_w,drop) / σ (:func:`dcdc.sph.interfaces.coefficients`).
+    Starting at 90°, the drop relaxes towards θ; returns the angle
+    (:func:`cap_contact_angle`) every ``every`` s, N and the wall time."""
+    import time
+    W, H = 0.5, 0.25
+    size = [W, H] + ([W] if dim == 3 else [])
+    foot = np.array([W / 2, 0.0, W / 2])[:dim]
+    inside = lambda p: np.where(np.linalg.norm(p - foot, axis=1) < R, 1, 0)  # noqa: E731
+    sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), inside)],
+                     [Phase("ambient", 1000.0), Phase("drop", 1000.0)], wall_height=H,
+                     name="sessile_drop", closed=True)
+    sy.gravity[:] = 0.0
+    c = sigma * math.cos(math.radians(theta))
+    walls = {"ambient": c} if c > 0 else {"drop": -c}
+    cfg = SPHConfig.from_dict({**(settings or {}), "interfacial_model": "pairwise",
+                               "interfacial_tension": {"ambient/drop": sigma},
+                               "wall_tension": walls})
+    sim = Simulator(sy, cfg)
+    t0 = time.perf_counter()
+    angles = []
+    for _ in range(int(round(duration / every))):
+        sim.run(every, FRAME)
+        angles.append(cap_contact_angle(sy.x, sy.phase, 1, r))
+    return {"theta": angles, "n": sy.n_fluid, "wall": time.perf_counter() - t0}
+
+
 def _damping_reynolds(cfg: SPHConfig, r: float, run: dict) -> float:
     """The lock exchange's Reynolds number UH/ν with ν the stabilisation's: XSPH as a
     viscosity (:func:`dcdc.sph.forces.xsph_viscosity`, at the speed-floor CFL substep) plus

@@ -70,6 +70,10 @@ class SPHConfig:
     surface_tension: Akinci et al. 2013 cohesion γ [m/s² per same-phase pair] (0 = off).
     interfacial_tension: σ [N/m] per pair of phases (per unit depth in 2-D),
         {"oil/water": 0.05, ...} (:mod:`dcdc.sph.interfaces`); empty = none.
+    wall_tension: σ_wa [N/m] per phase ("pairwise" only), {"oil": 17.3, ...}: the walls'
+        tension against each phase (unnamed phases 0; only differences matter), which sets
+        the contact angle by Young's law, cos θ_b = (σ_wa − σ_wb) / σ_ab for a drop of b in
+        a (:func:`dcdc.sph.interfaces.pairwise_wall_images`); empty = 90° for every pair.
     interfacial_model: "curvature" (default: the continuum surface force σκ∇c of Brackbill
         et al. 1992 with the curvature from a corrected SPH divergence of the interface
         normal; Laplace jump 0.92-0.93 σ/R on the validation drops), "pairwise" (a
@@ -162,6 +166,7 @@ class SPHConfig:
     wall_contact_support: float = 0.0
     surface_tension: float = 0.0
     interfacial_tension: dict = field(default_factory=dict)
+    wall_tension: dict = field(default_factory=dict)
     interfacial_model: str = "curvature"
     background_pressure: float = 0.0
     reference_suction: bool = True
@@ -217,12 +222,15 @@ class SPHConfig:
             raise DcdcError(f"sph.dt_min ({self.dt_min}) exceeds sph.dt_max ({self.dt_max})")
         if self.min_iterations > self.max_iterations:
             raise DcdcError("sph.min_iterations exceeds sph.max_iterations")
-        if not isinstance(self.interfacial_tension, dict):
-            raise DcdcError("sph.interfacial_tension must be a table of \"a/b\" = σ [N/m]")
-        for k, v in self.interfacial_tension.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise DcdcError(f"sph.interfacial_tension.{k} must be a finite number >= 0 "
-                                f"(got {v!r})")
+        for name, what in (("interfacial_tension", "\"a/b\" = σ [N/m]"),
+                           ("wall_tension", "phase = σ [N/m]")):
+            table = getattr(self, name)
+            if not isinstance(table, dict):
+                raise DcdcError(f"sph.{name} must be a table of {what}")
+            for k, v in table.items():
+                if isinstance(v, bool) or not isinstance(v, (int, float)) \
+                        or not math.isfinite(v) or v < 0:
+                    raise DcdcError(f"sph.{name}.{k} must be a finite number >= 0 (got {v!r})")
         return self
 
     def to_dict(self) -> dict:

@@ -189,24 +189,53 @@ def lattice_across_sum(radius: float, h: float, dim: int) -> float:
     return total / s ** (dim - 1)
 
 
+def wall_tension_vector(wall_tensions: dict, phases) -> np.ndarray:
+    """σ_wk [N/m] per phase from ``wall_tensions`` (phase name -> σ_wk; unnamed phases 0),
+    less its smallest value: only differences enter Young's law (:func:`coefficients`)."""
+    names = [p.name for p in phases]
+    out = np.zeros(len(names))
+    for key, value in wall_tensions.items():
+        if key not in names:
+            raise DcdcError(f"sph.wall_tension: {key!r} names no phase "
+                            f"(phases: {', '.join(names)})")
+        out[names.index(key)] = float(value)
+    return out - out.min()
+
+
 def coefficients(model: str, tensions: dict, phases, h: float, V0: float,
-                 dim: int) -> np.ndarray | None:
+                 dim: int, wall_tensions: dict | None = None) -> np.ndarray | None:
     """The matrix the force kernel of ``model`` takes (None without tensions): "csf" and
-    "curvature" σ_ab / L [N/m], "pairwise" k_ab = σ_ab / S [N] (< 0, a repulsion)."""
+    "curvature" σ_ab / L [N/m], "pairwise" k_ab = σ_ab / S [N] (< 0, a repulsion) with one
+    more row and column, the walls' k_wa = 2 σ_wa / S (:func:`pairwise_wall_images`).
+
+    ``wall_tensions`` (phase -> σ_wa, "pairwise" only) set the contact angle at the walls by
+    Young's law: a drop of b in a meets the wall at cos θ_b = (σ_wa − σ_wb) / σ_ab; none:
+    90° for every pair."""
     if model not in MODELS:
         raise DcdcError(f"sph.interfacial_model must be one of {', '.join(MODELS)} (got {model!r})")
     sig = tension_matrix(tensions, phases)
+    if wall_tensions and (sig is None or model != "pairwise"):
+        raise DcdcError("sph.wall_tension needs sph.interfacial_tension and "
+                        "sph.interfacial_model = \"pairwise\" (the other models meet walls "
+                        "at 90°)")
     if sig is None:
         return None
     radius = V0 ** (1.0 / dim) / 2.0
     if model in CSF_MODELS:
         return sig / gradient_integral(radius, h, dim, V0)
-    return sig / lattice_across_sum(radius, h, dim)
+    n = len(phases)
+    full = np.zeros((n + 1, n + 1))
+    full[:n, :n] = sig
+    # 2σ_wa: the mirrored system (fluid + images) holds the mirror plane's tension once for
+    # both halves, so each half carries half of the pair coefficient's (pairwise_wall_images)
+    full[:n, n] = full[n, :n] = 2.0 * wall_tension_vector(wall_tensions or {}, phases)
+    return full / lattice_across_sum(radius, h, dim)
 
 
-def pair_coefficients(tensions: dict, phases, h: float, V0: float, dim: int) -> np.ndarray | None:
-    """"pairwise": the matrix k_ab [N] (:func:`coefficients`)."""
-    return coefficients("pairwise", tensions, phases, h, V0, dim)
+def pair_coefficients(tensions: dict, phases, h: float, V0: float, dim: int,
+                      wall_tensions: dict | None = None) -> np.ndarray | None:
+    """"pairwise": the matrix k_ab [N], the walls' last (:func:`coefficients`)."""
+    return coefficients("pairwise", tensions, phases, h, V0, dim, wall_tensions)
 
 
 def stable_dt(tensions: dict, phases, spacing: float) -> float:
@@ -490,7 +519,15 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
     it; docs/sph.md, "Walls for the pairwise tension"). Only the nearest wall's plane is
     reflected (a corner gets one of its two walls), z is exact for flat walls of the plain
     volume map (on curved walls, wall particles or a balanced wall it is approximate), and
-    the images' reaction goes to the wall."""
+    the images' reaction goes to the wall.
+
+    Wetting (``K``'s last row, the walls' k_wa = 2 σ_wa / S, :func:`coefficients`): the
+    images are also the wall's own material w, so every image j' (i's own included) repels i
+    with k_wa besides (a of phase_i). The fluid and its images form a mirror-symmetric system
+    in which the mirror plane is an interface of tension k_wa S (the Kirkwood-Buff sum S of
+    the rest lattice, which the images continue) shared by both halves: the fluid's half
+    carries k_wa S / 2 = σ_wa, and a drop of b in a meets the wall at Young's angle
+    cos θ_b = (σ_wa − σ_wb) / σ_ab (docs/sph.md, "Wetting")."""
     n, d = x.shape
     out = np.zeros((n, d))
     for i in nb.prange(n):
@@ -509,10 +546,11 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
         sn = math.sqrt(s2)  # n̂ = -S_b / sn
         pi = phase[i]
         m = rho0[i] * V0
+        kw = K[pi, K.shape[0] - 1]  # the wall's material against phase_i
         for e in range(rs[i], rs[i + 1]):
             j = idx[e]
-            k = K[pi, phase[j]]
-            if j == i or k == 0.0:
+            k = K[pi, phase[j]] + kw
+            if k == 0.0:
                 continue
             zeta = 0.0  # y·n̂
             for a in range(d):

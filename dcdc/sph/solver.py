@@ -75,7 +75,7 @@ class Simulator:
         self._p_frame = np.zeros(n)  # Δt-weighted mean of p + p_div over the last frame
         self._sound_speed = cfg.sound_speed or _auto_sound_speed(system)
         C = interfaces.coefficients(cfg.interfacial_model, cfg.interfacial_tension,
-                                    system.phases, self.h, self.V0, system.dim)
+                                    system.phases, self.h, self.V0, system.dim, cfg.wall_tension)
         self._interface = None if C is None else (cfg.interfacial_model, C)
         self._reference = None
         lightest = min(ph.density for ph in system.phases)
