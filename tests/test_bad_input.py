@@ -288,3 +288,23 @@ def test_damaged_metadata_is_corrupt_not_unfinished(dataset, capsys):
     (dataset / "random_0_2d.h5").unlink()
     code, _, err = dcdc(capsys, "dataset", "info", dataset)
     assert_one_line_error(code, err, "corrupt", "random_1_2d")
+
+
+@pytest.mark.parametrize("solver, words", [
+    ('interfacial_model = "pairwise"\nwall_tension = { water = 1.0 }\n',
+     ["wall_tension needs sph.interfacial_tension"]),
+    ('interfacial_model = "pairwise"\nwall_tension = { milk = 1.0 }\n'
+     '[solver.interfacial_tension]\n"water/water" = 1.0\n', ["two different phases"]),
+    ('interfacial_model = "pairwise"\n[solver.interfacial_tension]\n"water/milk" = 1.0\n',
+     ["names no phase 'milk'"]),
+    ('wall_tension = { water = -1.0 }\n', ["wall_tension.water", ">= 0"]),
+])
+def test_tension_tables_are_checked_before_any_work(tmp_path, capsys, solver, words):
+    """Interfacial and wall tensions name the scene's phases and need each other: a one-line
+    error when the scene is read, before a dataset directory gets any file."""
+    f = scene_file(tmp_path)
+    f.write_text(f.read_text() + "\n[solver]\n" + solver)
+    out = tmp_path / "ds"
+    code, _, err = dcdc(capsys, "generate", f, "-o", out)
+    assert_one_line_error(code, err, "[solver]", *words)
+    assert not out.exists() or not any(out.iterdir())

@@ -884,10 +884,17 @@ class Scene:
         return copy.deepcopy(self.data["solver"])
 
     def check_solver(self):
-        """Validate the [solver] table against dcdc.sph.SPHConfig; returns the config."""
+        """Validate the [solver] table against dcdc.sph.SPHConfig and the tension tables'
+        phase names against the scene's phases; returns the config."""
+        from ..particles import Phase
         from ..sph import SPHConfig
+        from ..sph.interfaces import tension_matrix, wall_tension_vector
         try:
-            return SPHConfig.from_dict(self.solver)
+            cfg = SPHConfig.from_dict(self.solver)
+            phases = [Phase(name, 1.0) for name in self.data["phases"]]
+            tension_matrix(cfg.interfacial_tension, phases)
+            wall_tension_vector(cfg.wall_tension, phases)
+            return cfg
         except DcdcError as e:
             src = self.path.name if self.path else f"{self.name}.toml"
             line = _find_line(self.text, "solver")

@@ -7,6 +7,7 @@ import math
 
 from ..errors import DcdcError
 from .interfaces import MODELS as INTERFACIAL_MODELS
+from .interfaces import check_wall_tension
 from .reference import AUTO_REFERENCE
 
 SOLVERS = ("dfsph", "wcsph")
@@ -231,6 +232,7 @@ class SPHConfig:
                 if isinstance(v, bool) or not isinstance(v, (int, float)) \
                         or not math.isfinite(v) or v < 0:
                     raise DcdcError(f"sph.{name}.{k} must be a finite number >= 0 (got {v!r})")
+        check_wall_tension(self.interfacial_model, self.interfacial_tension, self.wall_tension)
         return self
 
     def to_dict(self) -> dict:

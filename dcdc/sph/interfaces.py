@@ -189,6 +189,15 @@ def lattice_across_sum(radius: float, h: float, dim: int) -> float:
     return total / s ** (dim - 1)
 
 
+def check_wall_tension(model: str, tensions: dict, wall_tensions: dict | None) -> None:
+    """Wall tensions set a contact angle only in the "pairwise" model and against a tension
+    between phases: a one-line error otherwise."""
+    if wall_tensions and (not tensions or model != "pairwise"):
+        raise DcdcError("sph.wall_tension needs sph.interfacial_tension and "
+                        "sph.interfacial_model = \"pairwise\" (the other models meet walls "
+                        "at 90°)")
+
+
 def wall_tension_vector(wall_tensions: dict, phases) -> np.ndarray:
     """σ_wk [N/m] per phase from ``wall_tensions`` (phase name -> σ_wk; unnamed phases 0),
     less its smallest value: only differences enter Young's law (:func:`coefficients`)."""
@@ -213,11 +222,8 @@ def coefficients(model: str, tensions: dict, phases, h: float, V0: float,
     90° for every pair."""
     if model not in MODELS:
         raise DcdcError(f"sph.interfacial_model must be one of {', '.join(MODELS)} (got {model!r})")
+    check_wall_tension(model, tensions, wall_tensions)
     sig = tension_matrix(tensions, phases)
-    if wall_tensions and (sig is None or model != "pairwise"):
-        raise DcdcError("sph.wall_tension needs sph.interfacial_tension and "
-                        "sph.interfacial_model = \"pairwise\" (the other models meet walls "
-                        "at 90°)")
     if sig is None:
         return None
     radius = V0 ** (1.0 / dim) / 2.0
