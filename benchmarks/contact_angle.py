@@ -1,12 +1,13 @@
 """Young's contact angle of a drop on a wall with the "pairwise" tension's wall tensions
-(``sph.wall_tension``; docs/sph.md, "Wetting"): a half disc (hemisphere) of radius 8 spacings
-on the floor of a closed box, equal densities, no gravity, starting at 90°
+(``sph.wall_tension``; docs/sph.md, "Wetting"): a half disc (hemisphere) of radius R
+(2-D: 8 spacings, 3-D: 4) on the floor of a closed box, equal densities, no gravity, starting at 90°
 (:func:`dcdc.sph.cases.sessile_drop_run`), its angle every 0.25 s
 (:func:`dcdc.sph.cases.cap_contact_angle`):
 
     python benchmarks/contact_angle.py --dim 2 60 90 120 150 >> benchmarks/contact_angle.jsonl
     python benchmarks/contact_angle.py --dim 2 --closed 60 90 120 150 >> benchmarks/contact_angle.jsonl
     python benchmarks/contact_angle.py --dim 3 90 120 >> benchmarks/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 3 120 --duration 8 >> benchmarks/contact_angle.jsonl
 
 ``--closed``: the closed containers' damping (a tenth of the default XSPH and artificial
 viscosity, :data:`dcdc.sph.reference.CLOSED_DAMPING`) instead of the defaults. 2-D: r = 5 mm,

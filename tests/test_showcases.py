@@ -62,9 +62,10 @@ def test_3d_cocktail_ends_in_clean_layers_with_under_one_percent_at_the_glass():
     """Issue 8's cocktail targets in 3-D: the scene in a 0.7× glass (2 392 particles of the
     default r = 2.5 cm, its 15 s and solver; ~55 s): four layers in density order, purity
     >= 0.9 per phase and < 1 % of every phase held at the glass under denser fluid.
-    Measured (session 28): none held from the lattice start, 0.44 % of the oil (1 of 228)
-    from a start perturbed by 0.1 mm, purity >= 0.995; without the pairwise tension's wall
-    images (:func:`dcdc.sph.interfaces.pairwise_wall_images`) 2.2 % of the oil stays (the
+    Measured with the scene's oil-repelling glass (session 29): none held from the lattice
+    start and from two starts perturbed by 0.1 mm, purity >= 0.993. With a neutral glass
+    (session 28): none from the lattice start, 0.44 % of the oil (1 of 228) from a perturbed
+    one, purity >= 0.995; without the pairwise tension's wall images (:func:`dcdc.sph.interfaces.pairwise_wall_images`) 2.2 % of the oil stays (the
     full-size 3-D cocktail: 2.6 % then, none now). A 0.6× glass spills water onto the table
     at the start, whose median height then fails the order."""
     sy = _run("cocktail", 3, 0.7)
