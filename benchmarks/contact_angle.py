@@ -8,6 +8,11 @@
     python benchmarks/contact_angle.py --dim 2 --closed 60 90 120 150 >> benchmarks/contact_angle.jsonl
     python benchmarks/contact_angle.py --dim 3 90 120 >> benchmarks/contact_angle.jsonl
     python benchmarks/contact_angle.py --dim 3 120 --duration 8 >> benchmarks/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 2 --start 150 90 120 >> benchmarks/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 3 --start 150 120 >> benchmarks/contact_angle.jsonl
+
+``--start``: the cap's angle at the start (default 90°, a half disc / hemisphere); from 150°
+the drops show how far the contact line can advance (hysteresis).
 
 ``--closed``: the closed containers' damping (a tenth of the default XSPH and artificial
 viscosity, :data:`dcdc.sph.reference.CLOSED_DAMPING`) instead of the defaults. 2-D: r = 5 mm,
@@ -28,12 +33,16 @@ def main(argv=None) -> None:
     ap.add_argument("--dim", type=int, choices=(2, 3), default=2)
     ap.add_argument("--closed", action="store_true", help="the closed containers' damping")
     ap.add_argument("--duration", type=float, default=4.0)
+    ap.add_argument("--start", type=float, default=90.0,
+                    help="the cap's angle at the start [degrees] (90: a half disc / hemisphere)")
     a = ap.parse_args(argv)
     r, R = (0.005, 0.08) if a.dim == 2 else (0.0125, 0.1)
     settings = dict(CLOSED_DAMPING) if a.closed else {}
     for theta in a.angles:
-        m = sessile_drop_run(a.dim, theta, r=r, R=R, duration=a.duration, settings=settings)
-        print(json.dumps({"dim": a.dim, "young": theta, "damping": "closed" if a.closed else "default",
+        m = sessile_drop_run(a.dim, theta, r=r, R=R, duration=a.duration, settings=settings,
+                             start=a.start)
+        print(json.dumps({"dim": a.dim, "young": theta, "start": a.start,
+                          "damping": "closed" if a.closed else "default",
                           "r": r, "R": R, "particles": m["n"], "every_s": 0.25,
                           "theta": [round(t, 1) for t in m["theta"]],
                           "final": round(m["theta"][-1], 1), "wall_s": round(m["wall"], 1)}),

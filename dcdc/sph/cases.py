@@ -638,17 +638,18 @@ def cap_contact_angle(x: np.ndarray, phase: np.ndarray, drop: int, r: float) -> 
 
 def sessile_drop_run(dim: int, theta: float, r: float = 0.005, R: float = 0.08,
                      sigma: float = 1.0, duration: float = 3.0, settings: dict | None = None,
-                     every: float = 0.25) -> dict:
-    """A half disc (hemisphere) of phase "drop" of radius ``R`` on the floor of a closed
+                     every: float = 0.25, start: float = 90.0) -> dict:
+    """A cap of a disc (sphere) of phase "drop" of radius ``R`` on the floor of a closed
     0.5 × 0.25 (× 0.5) m box of phase "ambient", equal densities, no gravity, "pairwise"
     tension σ and the walls' tensions that make Young's angle ``theta`` [degrees, through
     the drop]: cos θ = (σ_w,ambient − σ_w,drop) / σ (:func:`dcdc.sph.interfaces.coefficients`).
-    Starting at 90°, the drop relaxes towards θ; returns the angle
+    The cap starts at the angle ``start`` (90°: a half disc / hemisphere; its centre at
+    −R cos(start) above the floor) and relaxes towards θ; returns the angle
     (:func:`cap_contact_angle`) every ``every`` s, N and the wall time."""
     import time
     W, H = 0.5, 0.25
     size = [W, H] + ([W] if dim == 3 else [])
-    foot = np.array([W / 2, 0.0, W / 2])[:dim]
+    foot = np.array([W / 2, -R * math.cos(math.radians(start)), W / 2])[:dim]
     inside = lambda p: np.where(np.linalg.norm(p - foot, axis=1) < R, 1, 0)  # noqa: E731
     sy = tank_system(dim, r, size, [(np.zeros(3), size + [0] * (3 - dim), inside)],
                      [Phase("ambient", 1000.0), Phase("drop", 1000.0)], wall_height=H,

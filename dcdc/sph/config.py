@@ -74,7 +74,8 @@ class SPHConfig:
     wall_tension: σ_wa [N/m] per phase ("pairwise" only), {"oil": 17.3, ...}: the walls'
         tension against each phase (unnamed phases 0; only differences matter), which sets
         the contact angle by Young's law, cos θ_b = (σ_wa − σ_wb) / σ_ab for a drop of b in
-        a (:func:`dcdc.sph.interfaces.pairwise_wall_images`); empty = 90° for every pair.
+        a (:func:`dcdc.sph.interfaces.pairwise_wall_images`; reached by a receding contact
+        line in 2-D, with a large hysteresis, docs/sph.md "Wetting"); empty = 90° for every pair.
     interfacial_model: "curvature" (default: the continuum surface force σκ∇c of Brackbill
         et al. 1992 with the curvature from a corrected SPH divergence of the interface
         normal; Laplace jump 0.92-0.93 σ/R on the validation drops), "pairwise" (a
