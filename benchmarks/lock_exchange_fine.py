@@ -33,6 +33,9 @@ def table_fronts(path: str = TABLE) -> dict:
             out.setdefault(float(m.group(1)) / 1000, [None, None])[0] = row["measured"]
         elif m and row["quantity"].startswith("Fr light front"):
             out.setdefault(float(m.group(1)) / 1000, [None, None])[1] = row["measured"]
+    if not out or any(None in v for v in out.values()):
+        raise SystemExit(f"error: {path} has no complete per-radius lock-exchange rows "
+                         "(\"lock exchange 1.5:1 2D (N=…, r=… mm)\"): were the rows relabelled?")
     return out
 
 

@@ -30,6 +30,7 @@ wall (measured: ψ of the first fluid row 0.999 in 3-D and 1.001 in 2-D; wall pa
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numba as nb
 import numpy as np
@@ -261,10 +262,11 @@ class VolumeMap:
         return q - (q * n).sum(1, keepdims=True) * n
 
 
+@lru_cache(maxsize=16)
 def half_space_profile(h: float, dim: int, n: int = 801) -> tuple[np.ndarray, np.ndarray]:
     """Ψ of a flat solid half-space against the distance z from its surface, tabulated at
     ``n`` points of [0, h]: Ψ(z) = ∫_z^h M, with the kernel's marginal M(z) = ∫ W(z, x_⊥)
-    dx_⊥ (trapezoidal quadrature)."""
+    dx_⊥ (trapezoidal quadrature). Cached, so the arrays are read-only."""
     z = np.linspace(0.0, h, n)
     t = np.linspace(0.0, h, n)  # |x_⊥|
     Z, T = np.meshgrid(z, t, indexing="ij")
@@ -272,7 +274,9 @@ def half_space_profile(h: float, dim: int, n: int = 801) -> tuple[np.ndarray, np
     wt = 2.0 * np.ones_like(t) if dim == 2 else 2.0 * np.pi * t  # line / ring measure
     M = np.trapezoid(W * wt, t, axis=1)
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (M[1:] + M[:-1]) * np.diff(z))])
-    return z, cum[-1] - cum
+    psi = cum[-1] - cum
+    z.flags.writeable = psi.flags.writeable = False
+    return z, psi
 
 
 def _first_row(radius: float, h: float, dim: int, V0: float) -> tuple[float, float]:
