@@ -623,12 +623,8 @@ def cap_contact_angle(x: np.ndarray, phase: np.ndarray, drop: int, r: float) -> 
     an unlike neighbour within 4.5 r (the "pairwise" tension keeps unlike neighbours about
     two spacings apart) more than 2.5 r above the floor, whose centre height c and radius
     R (+ r, the particles' half spacing) give cos θ = −c / R."""
-    from ..neighbors import radius_search
-    nb = radius_search(x, 4.5 * r, exclude_self=True)
-    rec = nb.receivers()
-    unlike = np.bincount(rec, weights=(phase[nb.index] != phase[rec]).astype(float),
-                         minlength=len(x))
-    P = x[(phase == drop) & (unlike > 0) & (x[:, 1] > 2.5 * r)]
+    unlike = metrics._same_phase_fraction(x, phase, 4.5 * r) < 1.0  # NaN (alone): False
+    P = x[(phase == drop) & unlike & (x[:, 1] > 2.5 * r)]
     d = x.shape[1]
     sol = np.linalg.lstsq(np.c_[2.0 * P, np.ones(len(P))], (P ** 2).sum(1), rcond=None)[0]
     centre = sol[:d]

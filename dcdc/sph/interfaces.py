@@ -111,6 +111,15 @@ BAND_THRESHOLD = 0.01
 
 
 # ---------------------------------------------------------------------------- coefficients
+def _phase_index(names: list, name: str, setting: str, key: str) -> int:
+    """Index of phase ``name`` in ``names``; a one-line error naming the setting's ``key``
+    when the scene has no such phase."""
+    if name not in names:
+        raise DcdcError(f"sph.{setting}: {key!r} names no phase {name!r} "
+                        f"(phases: {', '.join(names)})")
+    return names.index(name)
+
+
 def tension_matrix(tensions: dict, phases) -> np.ndarray | None:
     """The symmetric matrix σ_ab [N/m] (None when no pair has a tension) from ``tensions``:
     a mapping "a/b" (phase names) -> σ_ab."""
@@ -123,11 +132,7 @@ def tension_matrix(tensions: dict, phases) -> np.ndarray | None:
         if len(parts) != 2 or parts[0] == parts[1]:
             raise DcdcError(f"sph.interfacial_tension: key {key!r} must name two different "
                             "phases as \"a/b\"")
-        for p in parts:
-            if p not in names:
-                raise DcdcError(f"sph.interfacial_tension: {key!r} names no phase {p!r} "
-                                f"(phases: {', '.join(names)})")
-        a, b = names.index(parts[0]), names.index(parts[1])
+        a, b = (_phase_index(names, p, "interfacial_tension", key) for p in parts)
         out[a, b] = out[b, a] = float(value)
     return out
 
@@ -204,10 +209,7 @@ def wall_tension_vector(wall_tensions: dict, phases) -> np.ndarray:
     names = [p.name for p in phases]
     out = np.zeros(len(names))
     for key, value in wall_tensions.items():
-        if key not in names:
-            raise DcdcError(f"sph.wall_tension: {key!r} names no phase "
-                            f"(phases: {', '.join(names)})")
-        out[names.index(key)] = float(value)
+        out[_phase_index(names, key, "wall_tension", key)] = float(value)
     return out - out.min()
 
 
