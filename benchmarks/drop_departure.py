@@ -16,33 +16,14 @@ from __future__ import annotations
 import argparse
 import json
 
-import numpy as np
-
-from dcdc.particles import Phase
-from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import tank_system
-
-R, WIDTH, DEPTH, T = 0.025, 0.6, 0.4, 3.0
+from dcdc.sph.cases import floor_drops_run
 
 
 def drops(dim: int, sigma: float) -> dict:
-    size = [WIDTH, DEPTH + 0.1] + ([0.2] if dim == 3 else [])
-
-    def fill(p):
-        pick = (p[:, 1] < 2 * R) & (np.abs((p[:, 0] / (2 * R)) % 6 - 3) < 0.6)
-        if dim == 3:
-            pick &= np.abs((p[:, 2] / (2 * R)) % 4 - 2) < 0.6
-        return np.where(pick, 1, np.where(p[:, 1] > DEPTH, -1, 0))
-    sy = tank_system(dim, R, size, [(np.zeros(3), size + [0] * (3 - dim), fill)],
-                     [Phase("heavy", 2000.0), Phase("light", 700.0)], name="drops")
-    light = sy.phase == 1
-    y0 = sy.x[light, 1].copy()
-    cfg = {"interfacial_tension": {"heavy/light": sigma}, "interfacial_model": "pairwise"}
-    Simulator(sy, SPHConfig.from_dict(cfg if sigma > 0 else {})).run(T, 0.02)
-    rise = sy.x[light, 1] - y0
-    bond = 1300.0 * 9.81 * (2 * R) ** 2 / sigma if sigma > 0 else float("inf")
-    return {"dim": dim, "sigma": sigma, "bond": round(bond, 2), "drops": int(light.sum()),
-            "risen": float(np.mean(rise > 4 * R)), "median_rise_r": round(float(np.median(rise)) / R, 2)}
+    """One JSON line: :func:`dcdc.sph.cases.floor_drops_run` over 3 s."""
+    m = floor_drops_run(dim, sigma, T=3.0)
+    return {"dim": dim, "sigma": sigma, "bond": round(m["bond"], 2), "drops": m["drops"],
+            "risen": m["risen"], "median_rise_r": round(m["median_rise_r"], 2)}
 
 
 def main() -> None:

@@ -365,25 +365,6 @@ def test_pairwise_wall_images_cancel_the_walls_push_on_a_flat_interface(dim):
     assert np.abs(images[away]).max() == 0.0
 
 
-def _floor_drops(sigma, T=2.0, r=0.025):
-    """Single light particles (700 in 2000 kg/m³, every sixth of the floor row) at the floor
-    of a 0.4 m heavy column (2-D, 0.6 m wide), with the "pairwise" tension σ: the share that
-    rose more than two spacings in ``T`` s."""
-    from dcdc.sph.cases import tank_system
-    size = [0.6, 0.5]
-
-    def fill(p):
-        pick = (p[:, 1] < 2 * r) & (np.abs((p[:, 0] / (2 * r)) % 6 - 3) < 0.6)
-        return np.where(pick, 1, np.where(p[:, 1] > 0.4, -1, 0))
-    sy = tank_system(2, r, size, [(np.zeros(3), size + [0], fill)],
-                     [Phase("heavy", 2000.0), Phase("light", 700.0)], name="drops")
-    light = sy.phase == 1
-    y0 = sy.x[light, 1].copy()
-    Simulator(sy, SPHConfig(interfacial_tension={"heavy/light": sigma},
-                            interfacial_model="pairwise")).run(T, 0.02)
-    return float(np.mean(sy.x[light, 1] - y0 > 4 * r)), int(light.sum())
-
-
 def test_a_particle_size_drop_leaves_the_floor_only_above_the_departure_bond_number():
     """A drop of one particle (D = 2r = 5 cm) on a wall with a 90° contact angle detaches when
     its Bond number Δρ g D²/σ exceeds Fritz's departure value, (0.0208 θ)² = 3.5 at θ = 90°
@@ -393,9 +374,10 @@ def test_a_particle_size_drop_leaves_the_floor_only_above_the_departure_bond_num
     eight, 20 none): the departure lies at Bo ≈ 3-5, Fritz's 3.5 within its noise. This is
     what keeps the 2-D cocktail's last oil particles on the glass (docs/sph.md, "Walls for the
     pairwise tension")."""
-    risen, n = _floor_drops(2.0)
-    assert n == 4 and risen == 1.0
-    assert _floor_drops(20.0)[0] == 0.0
+    from dcdc.sph.cases import floor_drops_run
+    low = floor_drops_run(2, 2.0, T=2.0)
+    assert low["drops"] == 4 and low["risen"] == 1.0
+    assert floor_drops_run(2, 20.0, T=2.0)["risen"] == 0.0
 
 
 def test_wall_tension_is_checked_and_needs_the_pairwise_model():
