@@ -20,9 +20,9 @@ import numpy as np
 
 __all__ = [
     "phase_heights", "phase_order_ok", "density_order_ok", "ideal_layer_purity",
-    "neighbour_purity", "phase_volumes", "volume_error", "density_error", "kinetic_energy",
-    "momentum", "position_error", "nearest_error", "sinkhorn_distance", "inside_walls",
-    "wall_penetrations",
+    "neighbour_purity", "same_phase_fraction", "phase_volumes", "volume_error",
+    "density_error", "kinetic_energy", "momentum", "position_error", "nearest_error",
+    "sinkhorn_distance", "inside_walls", "wall_penetrations",
 ]
 
 
@@ -101,7 +101,7 @@ def ideal_layer_purity(x, phase, order_bottom_to_top: Sequence[int], floor: floa
     return ok / n
 
 
-def _same_phase_fraction(x, phase, radius: float) -> np.ndarray:
+def same_phase_fraction(x, phase, radius: float) -> np.ndarray:
     """Per particle, the fraction of its neighbours within ``radius`` (self excluded) that
     belong to its own phase; NaN for a particle without neighbours."""
     from .neighbors import radius_search
@@ -121,7 +121,7 @@ def neighbour_purity(x, phase, radius: float, active=None) -> float:
     x, phase = _select(active, np.asarray(x, dtype=np.float64), np.asarray(phase))
     if len(x) < 2:
         return float("nan")
-    frac = _same_phase_fraction(x, phase, radius)
+    frac = same_phase_fraction(x, phase, radius)
     return float(np.nanmean(frac)) if np.isfinite(frac).any() else float("nan")
 
 
@@ -131,7 +131,7 @@ def neighbour_purity_per_phase(x, phase, radius: float, n_phases: int) -> np.nda
     fraction of their neighbours within ``radius`` of the same phase."""
     x = np.asarray(x, dtype=np.float64)
     phase = np.asarray(phase)
-    frac = _same_phase_fraction(x, phase, radius)
+    frac = same_phase_fraction(x, phase, radius)
     return np.array([np.nanmean(frac[phase == k]) if (phase == k).any() else np.nan
                      for k in range(n_phases)])
 

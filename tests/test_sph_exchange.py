@@ -54,11 +54,13 @@ def test_extrapolation_to_zero_radius():
 
 
 def test_quick_lock_exchange_runs():
-    """The quick 2-D variant (r = 10 mm, about 85 s on 2 cores) returns finite Froude
-    numbers and its checks, run with the closed-container settings (the hydrostatic
-    reference, a tenth of the default damping; means of ten starts, the damping check's
-    ensemble), and information rows with XSPH and artificial viscosity off and with the
-    given settings as they are. At 10 mm halving that damping changes the heavy front by
+    """The quick 2-D variant (r = 10 mm and 5 mm, about 135 s on 2 cores) returns finite
+    Froude numbers and its checks, run with the closed-container settings (the hydrostatic
+    reference, a tenth of the default damping; at 10 mm means of ten starts, the damping
+    check's ensemble, at 5 mm of three), and information rows with XSPH and artificial
+    viscosity off and with the given settings as they are. The fronts are judged against
+    Benjamin's ½ ± 15 % only at 5 mm, where each current is 10 particle rows deep: at
+    10 mm (5 rows) they are information, below the band (0.40 / 0.42 in session 29). At 10 mm halving that damping changes the heavy front by
     +1.6 % over ten starts (three gave −6.5 %: one run changes by 12 % sd, docs/sph.md
     "Closed containers"), against +92 % with the open-scene defaults;
     without the reference and with the full damping the heavy front crawls (Fr 0.08
@@ -71,10 +73,16 @@ def test_quick_lock_exchange_runs():
     assert all(math.isfinite(r.measured) for r in rows)
     halving = next(r for r in checks if r.quantity.startswith("heavy speed change"))
     assert halving.passed, halving
+    fronts = [r for r in checks if r.quantity.startswith("Fr")]
+    assert len(fronts) == 2 and all("r=5 mm" in r.case for r in fronts), fronts
+    assert all(r.passed for r in fronts), fronts  # Fr within ½ ± 15 % where resolved
+    coarse = [r for r in rows if r.quantity.startswith("Fr") and "r=10 mm" in r.case
+              and "front" in r.quantity]
+    assert len(coarse) == 2 and all(r.passed is None and "info" in r.tolerance for r in coarse)
     fr = {r.quantity: r.measured for r in rows if r.quantity.startswith("Fr")}
     heavy = fr["Fr heavy front (floor), mean of 10 starts"]
     given = fr["Fr heavy / light, given settings as they are"]
-    assert all(f > 0 for f in fr.values()) and len(fr) == 5, fr
+    assert all(f > 0 for f in fr.values()) and len(fr) == 7, fr
     assert heavy > 1.25 * given, fr
     rows3 = CASES["lock_exchange"](3, True, SPHConfig())
     assert len(rows3) == 1 and rows3[0].passed is None

@@ -351,7 +351,7 @@ def test_pairwise_wall_images_cancel_the_walls_push_on_a_flat_interface(dim):
     nbh = sim._neighbourhood(s)
     K = sim._interface[1]
     plain = pairwise_acceleration(s.x, s.phase, s.rho0, K, nbh.rs, nbh.idx, s.h, s.V0)
-    images = pairwise_wall_images(s.x, s.phase, s.rho0, K, nbh.rs, nbh.idx, nbh.W, nbh.psi,
+    images = pairwise_wall_images(s.x, s.phase, s.rho0, K, nbh.rs, nbh.idx, nbh.psi_wall,
                                   nbh.Sb, s.V0, s.h, *wall_image_table(s.h, dim, s.V0))
     side = np.minimum(s.x[:, 0], size[0] - s.x[:, 0]) < s.h  # next to the side walls
     away = np.min(np.minimum(s.x, np.asarray(size) - s.x), 1) > s.h

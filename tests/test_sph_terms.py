@@ -82,3 +82,17 @@ def test_pressure_force_is_the_negative_adjoint_of_the_compression_rate(dim):
         e[:] = 0.0
         e[i] = 1.0
         assert A(e)[i] == pytest.approx(diag[i], rel=1e-10)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_walls_share_of_psi_is_the_wall_particles_sum(dim):
+    """ψ_i = V0 Σ_j W_ij + Ψ_b,i with the walls' share Ψ_b,i = Σ_b V_b W_ib kept apart
+    (``psi_wall``, the wall images' distance from the wall), per-edge numpy reference."""
+    x, wx, Vb, V0, h, *_ = scene(dim)
+    nbh = build(x, wx, Vb, h, V0)
+    recv, recvb = (np.repeat(np.arange(len(x)), np.diff(r)) for r in (nbh.rs, nbh.rsb))
+    fluid = np.bincount(recv, weights=V0 * nbh.W, minlength=len(x))
+    walls = np.bincount(recvb, weights=Vb[nbh.idxb] * nbh.Wb, minlength=len(x))
+    assert walls.max() > 0.1  # the lowest row sits a spacing above the floor
+    np.testing.assert_allclose(nbh.psi_wall, walls, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(nbh.psi, fluid + walls, rtol=1e-12)

@@ -40,7 +40,7 @@ def non_pressure_acceleration(s: State, nbh: Neighbourhood, no_slip: bool,
                                         nbh.Sb, s.V0, s.h)
         else:
             a += pairwise_acceleration(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, s.h, s.V0)
-            a += pairwise_wall_images(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.W, nbh.psi,
+            a += pairwise_wall_images(s.x, s.phase, s.rho0, C, nbh.rs, nbh.idx, nbh.psi_wall,
                                       nbh.Sb, s.V0, s.h, *wall_image_table(s.h, s.x.shape[1], s.V0))
     if surface_tension > 0:
         a += cohesion_acceleration(s.x, s.phase, surface_tension, nbh.rs, nbh.idx, s.h)

@@ -508,7 +508,7 @@ def pairwise_acceleration(x, phase, rho0, K, rs, idx, h, V0):
 
 
 @nb.njit(cache=True, parallel=True)
-def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_table, z_table):
+def pairwise_wall_images(x, phase, rho0, K, rs, idx, psi_wall, Sb, V0, h, psi_table, z_table):
     """The walls' part of "pairwise": the method of images. Where the wall cuts a particle's
     support, the fluid's neighbourhood is reflected across the wall's local plane and the
     reflected unlike neighbours j' repel i like real ones,
@@ -517,8 +517,8 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
         x_j' - x_i = y - 2 (y·n̂ + z_i) n̂,   y = x_j - x_i,
 
     with n̂ = -S_b/|S_b| the wall normal into the fluid (S_b = ∇Ψ_b, the walls' kernel
-    gradient) and z_i the distance from the wall's surface, read from the walls' share of ψ,
-    Ψ_b = ψ_i - V0 Σ_j W_ij, on the flat half-space's profile (:func:`wall_image_table`:
+    gradient) and z_i the distance from the wall's surface, read from the walls' share of ψ
+    (``psi_wall``, Ψ_b) on the flat half-space's profile (:func:`wall_image_table`:
     ``psi_table`` increasing, ``z_table`` the matching distances). Mirror symmetry across the
     wall is a contact angle of 90°, as :func:`wall_contact` gives the "curvature" model: an interface meeting the wall at right
     angles feels no force along the wall normal, and a particle at the wall under unlike
@@ -546,10 +546,7 @@ def pairwise_wall_images(x, phase, rho0, K, rs, idx, W, psi, Sb, V0, h, psi_tabl
             s2 += Sb[i, a] * Sb[i, a]
         if s2 * h * h <= BAND_THRESHOLD * BAND_THRESHOLD:
             continue
-        psi_f = 0.0
-        for e in range(rs[i], rs[i + 1]):
-            psi_f += W[e]
-        psi_b = psi[i] - V0 * psi_f
+        psi_b = psi_wall[i]
         if psi_b <= 1e-4:
             continue
         z = np.interp(psi_b, psi_table, z_table)
