@@ -886,14 +886,13 @@ class Scene:
     def check_solver(self):
         """Validate the [solver] table against dcdc.sph.SPHConfig and the tension tables'
         phase names against the scene's phases; returns the config."""
-        from ..particles import Phase
         from ..sph import SPHConfig
         from ..sph.interfaces import tension_matrix, wall_tension_vector
         try:
             cfg = SPHConfig.from_dict(self.solver)
-            phases = [Phase(name, 1.0) for name in self.data["phases"]]
-            tension_matrix(cfg.interfacial_tension, phases)
-            wall_tension_vector(cfg.wall_tension, phases)
+            names = list(self.data["phases"])
+            tension_matrix(cfg.interfacial_tension, names)
+            wall_tension_vector(cfg.wall_tension, names)
             return cfg
         except DcdcError as e:
             src = self.path.name if self.path else f"{self.name}.toml"

@@ -120,12 +120,17 @@ def _phase_index(names: list, name: str, setting: str, key: str) -> int:
     return names.index(name)
 
 
+def _names(phases) -> list:
+    """Phase names from :class:`~dcdc.particles.Phase` objects or names."""
+    return [p if isinstance(p, str) else p.name for p in phases]
+
+
 def tension_matrix(tensions: dict, phases) -> np.ndarray | None:
     """The symmetric matrix σ_ab [N/m] (None when no pair has a tension) from ``tensions``:
-    a mapping "a/b" (phase names) -> σ_ab."""
+    a mapping "a/b" (phase names) -> σ_ab; ``phases``: the phases or their names, in order."""
     if not tensions:
         return None
-    names = [p.name for p in phases]
+    names = _names(phases)
     out = np.zeros((len(names), len(names)))
     for key, value in tensions.items():
         parts = str(key).split("/")
@@ -205,8 +210,9 @@ def check_wall_tension(model: str, tensions: dict, wall_tensions: dict | None) -
 
 def wall_tension_vector(wall_tensions: dict, phases) -> np.ndarray:
     """σ_wk [N/m] per phase from ``wall_tensions`` (phase name -> σ_wk; unnamed phases 0),
-    less its smallest value: only differences enter Young's law (:func:`coefficients`)."""
-    names = [p.name for p in phases]
+    less its smallest value: only differences enter Young's law (:func:`coefficients`);
+    ``phases``: the phases or their names, in order."""
+    names = _names(phases)
     out = np.zeros(len(names))
     for key, value in wall_tensions.items():
         out[_phase_index(names, key, "wall_tension", key)] = float(value)
