@@ -30,7 +30,7 @@ class Neighbourhood:
     psi: np.ndarray  # ρ_i / ρ0_i
     counts: np.ndarray  # fluid + wall neighbours
     Sb: np.ndarray  # [n, d] Σ_b V_b ∇W_ib, the walls' part of the pressure operator
-    psi_wall: np.ndarray | None = None  # the walls' share of ψ (Σ_b V_b W_ib, or Ψ(x_i))
+    psi_wall: np.ndarray  # the walls' share of ψ (Σ_b V_b W_ib, or Ψ(x_i))
     wall_moment: np.ndarray | None = None  # [n, d] tangential hydrostatic moment (volume map)
 
     def fluid(self):
@@ -61,19 +61,21 @@ def build(x: np.ndarray, walls: np.ndarray | CellGrid, Vb: np.ndarray, h: float,
         rsb, idxb = np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int32)
     W, G = edge_kernels(x, x, ff.row_splits, ff.index, h)
     Wb, Gb = edge_kernels(x, walls.points, rsb, idxb, h)
+    # ψ = the fluid's share + the walls' (compression sums them in separate accumulators,
+    # so the split is exact to the bit)
     empty = np.zeros(n + 1, dtype=np.int64)
+    psi_f = compression(ff.row_splits, W, empty, idxb[:0], Wb[:0], Vb, V0)
     if vmap is None:
-        psi = compression(ff.row_splits, W, rsb, idxb, Wb, Vb, V0)
         psi_b = compression(empty, W[:0], rsb, idxb, Wb, Vb, V0)
         counts = neighbour_counts(ff.row_splits, rsb)
         Sb = wall_gradient_sum(rsb, idxb, Gb, Vb, n, d)
+        moment = None
     else:
         psi_b, Sb = vmap.sample(x)
-        psi = compression(ff.row_splits, W, empty, idxb[:0], Wb[:0], Vb, V0) + psi_b
         counts = np.diff(ff.row_splits) + np.rint(psi_b * full_count(h, V0, d)).astype(np.int64)
-        return Neighbourhood(ff.row_splits, ff.index, W, G, rsb, idxb, Wb, Gb, psi, counts, Sb,
-                             psi_b, vmap.tangential_moment(x, Sb))
-    return Neighbourhood(ff.row_splits, ff.index, W, G, rsb, idxb, Wb, Gb, psi, counts, Sb, psi_b)
+        moment = vmap.tangential_moment(x, Sb)
+    return Neighbourhood(ff.row_splits, ff.index, W, G, rsb, idxb, Wb, Gb, psi_f + psi_b, counts,
+                         Sb, psi_b, moment)
 
 
 @lru_cache(maxsize=16)
