@@ -9,7 +9,8 @@ from dcdc import metrics as M
 from dcdc.data.dataset import Dataset
 from dcdc.errors import DcdcError
 from dcdc.evaluate.rollout import Guard
-from dcdc.evaluate.scores import aggregate, number_density, one_two_step_errors, score_trajectory
+from dcdc.evaluate.scores import (aggregate, number_density, one_two_step_errors, perturbed_start,
+                                  score_members, score_trajectory)
 from dcdc.model.checkpoint import save_checkpoint
 from dcdc.model.networks import build_network
 from helpers import dcdc_output as _cli
@@ -153,6 +154,58 @@ def test_evaluate_cli_start_frame(ckpts, tmp_path, capsys):
     code, _, err = _cli(base + ["--start-frame", "100000"], capsys)
     assert code == 2 and err.startswith("error:") and "--start-frame" in err
     assert err.count("\n") == 1
+
+
+def test_perturbed_start_displaces_the_fluid_by_the_rms_asked():
+    traj = Dataset(SAMPLE)["random_200001_2d"]
+    a, b = perturbed_start(traj, 5, 1e-4, 1), perturbed_start(traj, 5, 1e-4, 1)
+    d = a.x - traj.position[5]
+    assert np.sqrt(np.mean(d ** 2)) == pytest.approx(1e-4, rel=0.1)
+    np.testing.assert_array_equal(a.x, b.x)  # seeded
+    assert not np.array_equal(a.x, perturbed_start(traj, 5, 1e-4, 2).x)
+    np.testing.assert_array_equal(a.wall_x, traj.wall_x)
+    np.testing.assert_array_equal(a.v, traj.velocity[5])
+    np.testing.assert_array_equal(perturbed_start(traj, 5, 0.0, 1).x, traj.position[5])
+
+
+def test_score_members_member_zero_is_the_plain_rollout_and_members_are_reproducible():
+    """Member 0 is :func:`score_trajectory`'s row; with no displacement every member repeats
+    it exactly (the rollout is deterministic), with one the members differ."""
+    torch.manual_seed(0)
+    net = build_network("dcdc", 2)
+    traj = Dataset(SAMPLE)["random_200001_2d"]
+    kw = dict(stride=20, steps=6, guard=Guard(max_in_walls=1.0, check_domain=False))
+    plain = score_trajectory(net, traj, **kw)
+    same = score_members(net, traj, 3, 0.0, **kw)
+    assert same["com_height_error"] == plain["com_height_error"]
+    assert same["err_n2_mm"] == plain["err_n2_mm"]
+    m = same["members"]
+    assert m["n"] == 3 and len(m["rollout_mm"]) == 3 and m["stable"] == [True] * 3
+    assert m["com_height_error"] == [plain["com_height_error"]] * 3
+    assert m["com_height_error_min"] == m["com_height_error_max"] == plain["com_height_error"]
+    moved = score_members(net, traj, 3, 1e-3, **kw)["members"]
+    assert moved["com_height_error"][0] == plain["com_height_error"]
+    assert len(set(moved["rollout_mm"])) == 3
+    assert (moved["com_height_error_min"] <= moved["com_height_error_mean"]
+            <= moved["com_height_error_max"])
+    assert "members" not in score_members(net, traj, 1, **kw)
+    with pytest.raises(DcdcError, match="members"):
+        score_members(net, traj, 0, **kw)
+
+
+def test_evaluate_cli_members(ckpts, tmp_path, capsys):
+    js = tmp_path / "e.json"
+    base = ["evaluate", "--model", str(ckpts / "trained.pt"), "--data", SAMPLE, "--trajectory",
+            "random_200001_2d", "--steps", "2", "--max-in-walls", "1", "--stride", "20"]
+    code, out, err = _cli(base + ["--members", "2", "--perturb", "1e-5", "--json", str(js)], capsys)
+    assert code == 0, err
+    assert "COM err, members" in out
+    res = json.loads(js.read_text())
+    assert res["members"] == 2 and res["perturb_m"] == 1e-5
+    assert res["trajectories"]["random_200001_2d"]["trained"]["members"]["n"] == 2
+    for bad, word in ((["--members", "0"], "--members"), (["--perturb", "-1"], "--perturb")):
+        code, _, err = _cli(base + bad, capsys)
+        assert code == 2 and err.startswith("error:") and word in err and err.count("\n") == 1
 
 
 def test_train_simulate_evaluate_end_to_end(tmp_path, capsys):

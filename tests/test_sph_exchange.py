@@ -54,7 +54,7 @@ def test_extrapolation_to_zero_radius():
 
 
 def test_quick_lock_exchange_runs():
-    """The quick 2-D variant (r = 10 mm and 5 mm, about 135 s on 2 cores) returns finite
+    """The quick 2-D variant (r = 10 mm and 5 mm; 135-162 s on 2 cores) returns finite
     Froude numbers and its checks, run with the closed-container settings (the hydrostatic
     reference, a tenth of the default damping; at 10 mm means of ten starts, the damping
     check's ensemble, at 5 mm of three), and information rows with XSPH and artificial

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -143,24 +144,37 @@ def _cell(row, key, fmt):
     return fmt.format(v)
 
 
+def _members_cell(row) -> str:
+    """'mean [min–max] (orders right / members)' of the COM error over an ensemble."""
+    m = row.get("members")
+    if not m or m.get("com_height_error_mean") is None:
+        return "-"
+    return (f"{m['com_height_error_mean']:.3f} [{m['com_height_error_min']:.3f}–"
+            f"{m['com_height_error_max']:.3f}] ({sum(map(bool, m['order_ok']))}/{m['n']} order)")
+
+
 def format_table(results: dict) -> str:
-    """Markdown table: per trajectory, a row per model and one for the SPH ground truth."""
-    head = ["trajectory", "model"] + [c[0] for c in COLUMNS]
+    """Markdown table: per trajectory, a row per model and one for the SPH ground truth;
+    with an ensemble (``--members``), a column of the COM error over its members."""
+    ens = results.get("members", 1) > 1
+    head = ["trajectory", "model"] + [c[0] for c in COLUMNS] + (["COM err, members"] if ens else [])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for traj, per_model in results["trajectories"].items():
         for label, row in per_model.items():
             cells = [_cell(row, k, f) for _, k, f in COLUMNS]
             if not row.get("stable", True):
-                cells[-2] = f"{row['steps']} ({row['stop_cause']})"
-            lines.append("| " + " | ".join([traj, label] + cells) + " |")
+                cells[len(COLUMNS) - 2] = f"{row['steps']} ({row['stop_cause']})"
+            lines.append("| " + " | ".join([traj, label] + cells + ([_members_cell(row)] if ens else []))
+                         + " |")
         any_row = next(iter(per_model.values()))
         sph = {"order_ok": any_row["order_ok_true"], "purity": any_row["purity_true"]}
         lines.append("| " + " | ".join([traj, "SPH (truth)"] +
-                                       [_cell(sph, k, f) for _, k, f in COLUMNS]) + " |")
+                                       [_cell(sph, k, f) for _, k, f in COLUMNS] +
+                                       (["-"] if ens else [])) + " |")
     for label, agg in results["aggregate"].items():
         cells = [_cell(agg, k, f) for _, k, f in COLUMNS]
         cells[-2] = f"{agg['stable']}/{agg['trajectories']} stable, min {agg['steps_min']}"
-        lines.append("| " + " | ".join(["**all**", label] + cells) + " |")
+        lines.append("| " + " | ".join(["**all**", label] + cells + (["-"] if ens else [])) + " |")
     return "\n".join(lines)
 
 
@@ -209,12 +223,18 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True, help="guard")
 @click.option("--contact/--no-contact", default=True, show_default=True,
               help="the walls' contact in the rollouts (dcdc simulate --help)")
+@click.option("--members", type=int, default=1, show_default=True,
+              help="rollouts per model and trajectory: member 0 from the stored start, the "
+                   "others from starts displaced by --perturb (the rollouts are chaotic; the "
+                   "table adds the COM error's mean and range over the members)")
+@click.option("--perturb", type=float, default=1e-6, show_default=True,
+              help="with --members > 1: rms displacement of the members' starts [m]")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None)
 @click.option("--plots", "plot_dir", type=click.Path(file_okay=False), default=None,
               help="write error-over-time plots (PNG per trajectory) here")
 @click.option("--overwrite", is_flag=True, help="replace an existing --json file / plots")
 def evaluate_command(models, data, names, steps, start_frame, stride, max_speed, max_in_walls,
-                     contact, json_path, plot_dir, overwrite):
+                     contact, members, perturb, json_path, plot_dir, overwrite):
     """Score models against the SPH ground truth: table on stdout, JSON, plots."""
     from tqdm import tqdm
 
@@ -223,12 +243,16 @@ def evaluate_command(models, data, names, steps, start_frame, stride, max_speed,
     from ..outputs import check_dir, check_file, write_text
     from ..model.checkpoint import check_compatible, load_checkpoint
     from .rollout import Guard
-    from .scores import aggregate, score_trajectory
+    from .scores import aggregate, score_members
 
     if stride < 1:
         raise DcdcError(f"--stride must be >= 1 (got {stride})")
     if steps is not None and steps < 1:
         raise DcdcError(f"--steps must be >= 1 (got {steps})")
+    if members < 1:
+        raise DcdcError(f"--members must be >= 1 (got {members})")
+    if not (math.isfinite(perturb) and perturb >= 0):
+        raise DcdcError(f"--perturb must be a length >= 0 in metres (got {perturb})")
     if json_path:
         check_file(json_path, overwrite)
     if plot_dir:
@@ -250,17 +274,19 @@ def evaluate_command(models, data, names, steps, start_frame, stride, max_speed,
                              what=f"trajectory {t.name} of {data}")
     results = {"data": str(data), "models": dict(zip(labels, map(str, models))),
                "stride": stride, "steps": steps, "start_frame": start_frame,
-               "contact": contact, "trajectories": {},
+               "contact": contact, "members": members,
+               "perturb_m": perturb if members > 1 else 0.0, "trajectories": {},
                "aggregate": {}}
-    with interrupt.handling(), tqdm(total=len(trajs) * len(nets), unit="rollout") as bar:
+    with interrupt.handling(), tqdm(total=len(trajs) * len(nets) * members, unit="rollout") as bar:
         for t in trajs:
             per = {}
             for label, net in zip(labels, nets):
                 bar.set_postfix_str(f"{t.name} / {label}")
-                per[label] = score_trajectory(net, t, stride, steps, guard, contact=contact,
-                                              start_frame=start_frame)
+                per[label] = score_members(net, t, members, perturb, stride=stride,
+                                           steps=steps, guard=guard, contact=contact,
+                                           start_frame=start_frame)
                 interrupt.check()
-                bar.update(1)
+                bar.update(members)
             results["trajectories"][t.name] = per
     for label in labels:
         results["aggregate"][label] = aggregate([p[label] for p in results["trajectories"].values()])

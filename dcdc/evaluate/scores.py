@@ -114,15 +114,29 @@ def compare_states(pred_x, true_x, traj, active) -> tuple[dict, dict, np.ndarray
     return pred, true, com_rel
 
 
+def perturbed_start(traj, frame: int, perturb: float, seed: int):
+    """The ground-truth state at ``frame`` with every fluid position displaced by ``perturb``
+    metres rms per component (normal, seeded by ``seed``; velocities as they are): a member
+    of an ensemble of starts that differ far below the particle spacing. 0 = the state as
+    stored."""
+    sy = traj.system(frame)
+    if perturb:
+        sy.x += perturb * np.random.default_rng(seed).standard_normal(sy.x.shape)
+    return sy
+
+
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                      guard: Guard | None = None, sinkhorn_points: int = 1000,
-                     contact: bool = True, start_frame: int = 0) -> dict:
+                     contact: bool = True, start_frame: int = 0, perturb: float = 0.0,
+                     seed: int = 0, one_two_step: bool = True) -> dict:
     """All scores of ``model`` on ground-truth trajectory ``traj`` (a
     :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors (the network alone, over the
-    whole trajectory), a rollout from frame ``start_frame`` (default 0: the scene's initial
-    state) over ``steps`` (default: every remaining frame; with the walls' contact unless
-    ``contact`` is False) with its per-frame errors against the frames it reaches, and the
-    final-state physics. The rollout's per-frame curves are under ``"curves"``."""
+    whole trajectory; skipped, None, with ``one_two_step`` False), a rollout from frame
+    ``start_frame`` (default 0: the scene's initial state; displaced as
+    :func:`perturbed_start` says with ``perturb`` > 0) over ``steps`` (default: every
+    remaining frame; with the walls' contact unless ``contact`` is False) with its per-frame
+    errors against the frames it reaches, and the final-state physics. The rollout's
+    per-frame curves are under ``"curves"``."""
     from ..model.checkpoint import check_compatible
 
     check_compatible(model, dim=traj.dim, radius=traj.radius, frame_dt=traj.frame_dt,
@@ -131,11 +145,12 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
     if not 0 <= s0 < traj.n_frames - 1:
         raise DcdcError(f"start frame {s0} outside {traj.name} (frames 0..{traj.n_frames - 2} "
                         f"can start a rollout)")
-    n1, n2, starts = one_two_step_errors(model, traj, stride)
+    n1, n2, starts = (one_two_step_errors(model, traj, stride) if one_two_step
+                      else (float("nan"), float("nan"), 0))
     left = traj.n_frames - 1 - s0
     n = left if steps is None else min(int(steps), left)
-    sim = NeuralSimulator(model, traj.system(s0), guard=guard, time=float(traj.time[s0]),
-                          contact=contact)
+    sim = NeuralSimulator(model, perturbed_start(traj, s0, perturb, seed), guard=guard,
+                          time=float(traj.time[s0]), contact=contact)
     ro = run(sim, n)
     K = ro.steps
     phases, phase = traj.phases, traj.phase
@@ -194,6 +209,36 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                    "position_mm": [MM * e for e in perr], "ke_pred": ke_p, "ke_true": ke_t,
                    "in_walls": ro.in_walls.tolist()},
     }
+
+
+MEMBER_KEYS = ("com_height_error", "rollout_mm", "sinkhorn_mm", "purity", "order_ok", "stable",
+               "steps")
+
+
+def score_members(model, traj, members: int = 1, perturb: float = 1e-6, **kw) -> dict:
+    """Scores that show how much of a rollout's error is chaos: :func:`score_trajectory`
+    from the stored start (member 0, whose row this is) and from ``members`` - 1 starts
+    displaced by ``perturb`` metres rms (members k = 1, 2, ...: seed k). Long rollouts of
+    these flows are chaotic: rounding alone (another CPU's vector width) moves a 2-D
+    hourglass rollout's COM error from 0.05 to 0.01 (docs/evaluation.md, "Ensembles"), so
+    one rollout is one sample. With ``members`` > 1 the row gets ``"members"``: each
+    member's final-state scores (:data:`MEMBER_KEYS`) and the COM error's mean, min and max
+    over the members."""
+    if members < 1:
+        raise DcdcError(f"members must be >= 1 (got {members})")
+    if perturb < 0 or not math.isfinite(perturb):
+        raise DcdcError(f"perturb must be a finite length >= 0 m (got {perturb})")
+    row = score_trajectory(model, traj, **kw)
+    if members == 1:
+        return row
+    rows = [row] + [score_trajectory(model, traj, perturb=perturb, seed=k, one_two_step=False,
+                                     **kw) for k in range(1, members)]
+    ens = {"n": members, "perturb_m": perturb, **{k: [r[k] for r in rows] for k in MEMBER_KEYS}}
+    com = [c for c in ens["com_height_error"] if c is not None]
+    ens.update({"com_height_error_mean": _finite(np.mean(com)) if com else None,
+                "com_height_error_min": _finite(min(com)) if com else None,
+                "com_height_error_max": _finite(max(com)) if com else None})
+    return {**row, "members": ens}
 
 
 def _sph_cost(traj):
