@@ -11,23 +11,19 @@ import sys
 import numpy as np
 
 from dcdc.data import Dataset
-
-NECK_Y = 0.9
+from exchange_convergence import NECK_Y  # the hourglass neck's height
 
 
 def main() -> None:
     path, name = sys.argv[1], sys.argv[2]
     times = [float(t) for t in sys.argv[3:]] or [5.0, 10.0, 15.0]
     traj = Dataset(path)[name]
-    heavy = [p.name for p in traj.system(0).phases].index("heavy")
-    below = []
-    for frame in range(traj.n_frames):
-        sy = traj.system(frame)
-        below.append(float(np.mean(sy.x[sy.phase == heavy, 1] < NECK_Y)))
-    half = np.flatnonzero(np.array(below) >= 0.5)
-    at = {f"below_{t:g}s": round(below[min(int(round(t / traj.frame_dt)), traj.n_frames - 1)], 4)
+    heavy = traj.phase == [p.name for p in traj.phases].index("heavy")
+    below = (traj.position[:, heavy, 1] < NECK_Y).mean(axis=1)  # per frame
+    half = np.flatnonzero(below >= 0.5)
+    at = {f"below_{t:g}s": round(float(below[min(int(round(t / traj.frame_dt)), traj.n_frames - 1)]), 4)
           for t in times}
-    print(json.dumps({"trajectory": name, "n": int(traj.system(0).n_fluid), **at,
+    print(json.dumps({"trajectory": name, "n": int(traj.n_particles), **at,
                       "t_half": round(float(half[0] * traj.frame_dt), 3) if len(half) else None}))
 
 

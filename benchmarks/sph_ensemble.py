@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from dcdc.data import Dataset
-from dcdc.evaluate.scores import compare_states
+from dcdc.evaluate.scores import compare_states, displace
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
 
@@ -39,7 +39,7 @@ def main() -> None:
         if sy.n_fluid != traj.n_particles:
             raise SystemExit(f"{name}: {sy.n_fluid} particles, the stored run has {traj.n_particles}")
         if k:
-            sy.x += a.perturb * np.random.default_rng(k).standard_normal(sy.x.shape)
+            displace(sy, a.perturb, k)  # as dcdc evaluate --members displaces its member k
         sim = Simulator(sy, SPHConfig.from_dict(scene.solver))
         t0, f = time.perf_counter(), 0
         for target in frames:

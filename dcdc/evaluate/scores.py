@@ -114,15 +114,19 @@ def compare_states(pred_x, true_x, traj, active) -> tuple[dict, dict, np.ndarray
     return pred, true, com_rel
 
 
-def perturbed_start(traj, frame: int, perturb: float, seed: int):
-    """The ground-truth state at ``frame`` with every fluid position displaced by ``perturb``
-    metres rms per component (normal, seeded by ``seed``; velocities as they are): a member
-    of an ensemble of starts that differ far below the particle spacing. 0 = the state as
-    stored."""
-    sy = traj.system(frame)
+def displace(system, perturb: float, seed: int):
+    """``system`` with every fluid position displaced in place by ``perturb`` metres rms per
+    component (normal, seeded by ``seed``; velocities and walls as they are): a member of an
+    ensemble of starts that differ far below the particle spacing. 0 leaves it as it is."""
     if perturb:
-        sy.x += perturb * np.random.default_rng(seed).standard_normal(sy.x.shape)
-    return sy
+        system.x += perturb * np.random.default_rng(seed).standard_normal(system.x.shape)
+    return system
+
+
+def perturbed_start(traj, frame: int, perturb: float, seed: int):
+    """The ground-truth state at ``frame``, displaced by :func:`displace` (``perturb`` 0 =
+    the state as stored)."""
+    return displace(traj.system(frame), perturb, seed)
 
 
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
