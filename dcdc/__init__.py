@@ -1,6 +1,14 @@
 """dcdc: Density-Conditioned Dynamic Convolution for multiphase particle fluids.
 
-Data flow (one module per arrow, see ``docs/`` and ``../shared/DESIGN.md`` §1)::
+```python
+import dcdc
+scene = dcdc.load_scene("lock_exchange")          # built-in name, .toml path or TOML text
+truth = dcdc.sph.run(scene, dim=2, duration=1.0)  # the multiphase SPH solver
+pred = dcdc.simulate(dcdc.load_model("dcdc2d"), scene, dim=2, steps=50)
+```
+(docs/api.md; the functions load lazily, so ``import dcdc`` stays fast.)
+
+Data flow (one module per arrow, see ``docs/``)::
 
     scene file -> particles -> SPH solver -> dataset (HDF5) -> model -> training
                -> neural rollout -> metrics -> render / export
@@ -25,3 +33,22 @@ if "NUMBA_THREADING_LAYER" not in _os.environ:
         _sys.modules["numba"].config.THREADING_LAYER = "workqueue"
 
 __version__ = "0.1.0"
+
+_API = ("Run", "load_scene", "load_model", "run_sph", "rollout", "simulate")
+_SUBPACKAGES = ("api", "data", "evaluate", "geometry", "metrics", "model", "render", "scene",
+                "sph", "train")
+__all__ = [*_API, "__version__"]
+
+
+def __getattr__(name):
+    """``dcdc.load_scene`` etc. (:mod:`dcdc.api`) and ``dcdc.sph`` etc., imported on first use."""
+    import importlib
+    if name in _API:
+        return getattr(importlib.import_module(".api", __name__), name)
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'dcdc' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_API) | set(_SUBPACKAGES))

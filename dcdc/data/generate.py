@@ -73,7 +73,7 @@ def generate(jobs: list[Job], out_dir, workers: int = 1, shard: str | None = Non
             return int(round(j.duration / 0.02))
         if j.scene_text is None:  # random scene, drawn later: 2-3 s, ~125 frames
             return int(round((j.random_cfg.get("duration") or 2.5) / 0.02))
-        import tomllib
+        from ..scene.format import tomllib  # tomli on Python 3.10
         d = tomllib.loads(j.scene_text)
         return int(round(d.get("duration", 2.0) / d.get("frame_dt", 0.02)))
     total = sum(frames(j) for j in todo)
