@@ -1,4 +1,4 @@
-"""Measurements of a particle state — arrays in, numbers out (DESIGN §6).
+"""Measurements of a particle state — arrays in, numbers out (definitions in docs/evaluation.md).
 
 The one definition of every physical and error metric the project reports, shared by the
 SPH validation (``dcdc validate-sph``), the demo and the evaluation of learned models
@@ -161,7 +161,7 @@ def trapped_at_walls(x, phase, phase_densities, wall_x, radius: float) -> np.nda
 
 
 def layer_summary(x, phase, phase_densities, wall_x, radius: float) -> dict:
-    """A layered showcase's state in one call (the cocktail's checks, issue 8): ``order``
+    """A layered showcase's state in one call (the cocktail's checks): ``order``
     (:func:`density_order_ok`), ``purity`` per phase (:func:`neighbour_purity_per_phase`
     within 2.5 r) and ``trapped``, each phase's share held at the walls under denser fluid
     (:func:`trapped_at_walls`)."""

@@ -2,7 +2,7 @@
 
 A scene (``dcdc.scene``) is realised as a :class:`ParticleSystem`; the SPH solver
 (``dcdc.sph``) advances it; the dataset (``dcdc.data``) stores its frames; the model
-(``dcdc.model``) predicts its next positions. Units are SI, ``y`` is up (DESIGN §2).
+(``dcdc.model``) predicts its next positions. Units are SI, ``y`` is up.
 
 Fluid particles carry a phase id; each :class:`Phase` has its own rest density and
 viscosity. Walls are static boundary particles with outward normals (pointing into the
@@ -20,7 +20,7 @@ import numpy as np
 
 from .errors import DcdcError, require
 
-DEFAULT_RADIUS = 0.025  # particle radius r [m]; spacing 2r (DESIGN §2)
+DEFAULT_RADIUS = 0.025  # particle radius r [m]; spacing 2r
 DEFAULT_GRAVITY = (0.0, -9.81, 0.0)
 RHO_REF = 1000.0  # reference density for the density embedding (paper eq. 4)
 TIME_EPS = 1e-9  # [s] slack of the comparisons with birth and death times

@@ -7,7 +7,7 @@
     sim.time, sim.stats, sim.system.x
 
 Each step is Algorithm 1 of the paper (:func:`dcdc.model.integrator.step`) at the Δt the
-network was trained for (DESIGN §9); the system's dimension, particle radius and Δt must
+network was trained for; the system's dimension, particle radius and Δt must
 match the network's (:func:`dcdc.model.checkpoint.check_compatible`). Emitters work as in the
 SPH solver: a particle with ``birth > t`` is inactive — neither stepped nor a neighbour —
 until its birth time, then it starts from its stored position and velocity.

@@ -1,4 +1,4 @@
-"""Scores of learned models against SPH ground truth (DESIGN §6; docs/evaluation.md).
+"""Scores of learned models against SPH ground truth (docs/evaluation.md).
 
 :func:`score_trajectory` runs one model on one ground-truth trajectory and returns plain
 numbers (JSON-ready) plus per-frame curves; :func:`aggregate` averages over trajectories.

@@ -349,7 +349,7 @@ def build_geometry(recv_x, send_x=None, radius: float = 0.1125, kernel_size: int
     Args:
         recv_x: [N, d] receiver positions (numpy or torch; detached).
         send_x: [M, d] sender positions; ``None`` = the receivers themselves.
-        radius: CConv radius R (DESIGN §2: 4.5 r).
+        radius: CConv radius R (the networks use 4.5 r).
         kernel_size: K, the filter has K^d cells.
         exclude_self: leave out (i, i); default True for a self-convolution.
         normalize: divide the weights by each receiver's window sum.

@@ -185,7 +185,7 @@ def load_checkpoint(path, expect: str | None = None, dim: int | None = None,
 def check_compatible(config, dim: int | None = None, radius: float | None = None,
                      frame_dt: float | None = None, what: str = "the data",
                      rtol: float = 1e-5) -> None:
-    """Refuse data a network is not made for (DESIGN §9): a one-line DcdcError unless the
+    """Refuse data a network is not made for: a one-line DcdcError unless the
     data's dimension, particle radius [m] and frame Δt [s] equal the network's.
 
     ``config``: a network, its :meth:`~CorrectionNet.config` dict, a :class:`NetConfig`,

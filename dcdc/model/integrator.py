@@ -1,6 +1,6 @@
 """Algorithm 1 of the paper: inertial step, neural correction, velocity from positions.
 
-One step with time step Δt and gravity g (DESIGN §4)::
+One step with time step Δt and gravity g (docs/model.md, "Integrator")::
 
     v* = v + Δt g                      (inertial velocity)
     x* = x + Δt (v + v*) / 2           (eq. 2: x + Δt v + ½ Δt² g)
@@ -25,7 +25,7 @@ import torch
 from ..errors import DcdcError
 from ..particles import DEFAULT_GRAVITY
 
-DEFAULT_DT = 0.02  # s, one frame / one neural step (DESIGN §2)
+DEFAULT_DT = 0.02  # s, one frame / one neural step
 
 
 def _gravity(gravity, dim: int, like: torch.Tensor) -> torch.Tensor:

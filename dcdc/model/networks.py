@@ -1,4 +1,4 @@
-"""The position-correction networks (DESIGN §4), selected by name.
+"""The position-correction networks (docs/model.md, "Networks"), selected by name.
 
 All three share the DeepLagrangianFluids layout (Ummenhofer et al. 2020):
 
@@ -44,14 +44,14 @@ from .modulation import DensityEmbedding, DensityPlan
 class NetConfig:
     """Hyper-parameters of a correction network (all stored in checkpoints).
 
-    The network knows the data it is made for (DESIGN §9): the particle radius r and the
+    The network knows the data it is made for: the particle radius r and the
     frame Δt of one neural step. Its convolution radius is derived from r as in
     DeepLagrangianFluids (Ummenhofer et al. 2020: filter extent 1.5 · 6 r, i.e. R = 4.5 r):
     R = ``radius_scale`` · ``particle_radius`` (:attr:`radius`).
     """
 
     particle_radius: float = DEFAULT_RADIUS  # r of the training data [m]
-    radius_scale: float = 4.5  # CConv radius R in particle radii (DESIGN §2)
+    radius_scale: float = 4.5  # CConv radius R in particle radii
     frame_dt: float = DEFAULT_DT  # Δt of one neural step = the data's frame interval [s]
     kernel_size: int = 4
     channels: tuple[int, ...] = (32, 64, 64)  # hidden widths; the output layer has d channels

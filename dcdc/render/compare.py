@@ -4,7 +4,7 @@ For two particle sets A (e.g. ground truth) and B (e.g. a model's rollout) of th
 frame, d(A→B) is the mean over A of the distance to the nearest particle of B; the caption
 reports the symmetric mean ½ (d(A→B) + d(B→A)) in mm: half the symmetric Chamfer distance
 (with unsquared distances) of point-set comparison (Fan, Su & Guibas, CVPR 2017), one of
-the distribution distances of DESIGN §6. It needs no particle correspondence, so it also
+the distribution distances of docs/evaluation.md. It needs no particle correspondence, so it also
 compares runs with different particle counts.
 
 Nearest neighbours come from a uniform grid of B (cells of the particle spacing) searched

@@ -1,4 +1,4 @@
-"""Random training scenes (DESIGN §5): random containers (open boxes, bowls), a few
+"""Random training scenes (docs/scenes.md): random containers (open boxes, bowls), a few
 obstacles (spheres, cylinders, boxes, shipped meshes), 1-4 fluid blocks of 1-4 phases whose
 densities come from a range with a bounded max/min ratio (the curriculum parameter), and
 random initial velocities. The same seed and settings always give the same scene file.
@@ -39,7 +39,7 @@ class RandomSceneConfig:
     @property
     def scale(self) -> float:
         """2-D scenes are drawn 2x larger than 3-D ones, so that at r = 2.5 cm they hold
-        ~1 000-2 000 fluid particles (enough for collective flow; issue 8) instead of 150-640."""
+        ~1 000-2 000 fluid particles (enough for collective flow) instead of 150-640."""
         return self.size if self.size is not None else (2.0 if self.dim == 2 else 1.0)
 
     def check(self):

@@ -759,7 +759,7 @@ def lock_exchange(dim: int, quick: bool, cfg: SPHConfig) -> list[Row]:
     within the band, the second-order extrapolation as information (how much the converged
     value depends on the order assumed). The coarse radii's own rows are kept as information:
     at 7 mm (h/H = 0.14) the fronts are 17-20 % slower than the extrapolated speed, the
-    discretisation error of that resolution (until session 30 these rows failed the table).
+    discretisation error of that resolution.
     Information rows give the Reynolds number UH/ν of the stabilisation at each radius
     (:func:`_damping_reynolds`), both fronts with XSPH and artificial viscosity switched off,
     and both fronts with the given settings as they are (the defaults of open scenes: no

@@ -21,7 +21,7 @@ class SPHConfig:
 
     solver: "dfsph" (implicit: divergence-free + constant-density solves, Bender & Koschier
         2015) or "wcsph" (explicit weakly compressible, Becker & Teschner 2007; cross-check).
-    support: kernel support h in particle radii (h = support · r; DESIGN §2: 4).
+    support: kernel support h in particle radii (h = support · r; default 4).
     cfl: Courant number; a substep moves no particle more than cfl · 2r.
     correction_speed: the constant-density solve removes a density error already present at
         most at the rate u_c / 2r per second [m/s] (new compression is still stopped in

@@ -65,10 +65,10 @@ def pressure_solve(s: State, nbh: Neighbourhood, p: np.ndarray, base: np.ndarray
                    cfg: SPHConfig) -> tuple[int, float, np.ndarray]:
     """Solve base + coef·A p = target for p >= 0 in place (p = 0 outside ``mask``).
 
-    Stage 1: Jacobi-preconditioned conjugate gradients on the particles of ``mask`` (-A is
+    First, Jacobi-preconditioned conjugate gradients on the particles of ``mask`` (-A is
     symmetric positive definite there: Σ_i q_i (A p)_i = -F(q)·M⁻¹F(p) / V0), warm-started
     from ``p``; pressure propagates through a column of n particles in O(n) iterations
-    instead of Jacobi's O(n²). Stage 2: clamp p >= 0 and polish the complementarity
+    instead of Jacobi's O(n²). Then clamp p >= 0 and polish the complementarity
     (free surface, separating particles) with relaxed Jacobi sweeps (IISPH eq. 13).
     Stops when the mean residual |base + coef·A p - target| over ``mask`` is below ``tol``
     and the largest below MAX_TO_MEAN·``tol``.

@@ -73,16 +73,16 @@ band's peak tension σ|∇c| on the lattice, closed scenes only) keeps the band 
 Meakin 2005; Tartakovsky & Panchenko 2016, J. Comput. Phys. 305) of the pair potential
 u_ab = k_ab φ(r), φ(r) = -∫_r^h w(s/h) ds <= 0 (w: the cubic spline scaled to w(0) = 1),
 with k_ab from the Kirkwood-Buff relation σ_ab = k_ab S (S: :func:`lattice_across_sum`,
-the sum of φ over the rest-lattice pairs straddling a plane per area). The default until
-session 26 and still the cocktail's (its shipped datasets were made with it; "curvature"
+the sum of φ over the rest-lattice pairs straddling a plane per area). The cocktail's
+model (its shipped datasets are made with it; "curvature"
 stirs its layers, docs/sph.md): it separates an emulsion but does not give the Laplace
 pressure: it opens an empty row between the phases (unlike neighbours 2 spacings apart,
 like ones squeezed to 0.8) and its force is carried as pressure by both sides alike
 (Δp = 0.13-0.28 of Young-Laplace, docs/sph.md). At walls the fluid's neighbourhood is
-mirrored into the wall (:func:`pairwise_wall_images`, since session 28): a contact angle of
-90°, as the other models have; without the images the wall was a hole in the repulsion and
-unlike neighbours pressed a particle into it (the cocktail's last oil at the glass: 3-D 2.6 %
-→ 0.25 %, docs/sph.md, "Walls for the pairwise tension").
+mirrored into the wall (:func:`pairwise_wall_images`): a contact angle of
+90°, as the other models have; without the images the wall is a hole in the repulsion and
+unlike neighbours press a particle into it (the cocktail's oil at the glass: 3-D 2.6 %
+without, 0.25 % with them, docs/sph.md, "Walls for the pairwise tension").
 
 Checked against the Young-Laplace jump of a 2-D and a 3-D droplet
 (``dcdc validate-sph --case laplace``; ``benchmarks/laplace_curvature.py`` for refinement,

@@ -149,8 +149,8 @@ def fill_aliased_slabs(profile: np.ndarray) -> np.ndarray:
     The slabs are one particle diameter thick, the spacing of the rows of a packing, so a
     row that sits on a slab face leaves a slab empty and puts two rows in the next one; as
     the rows move by a fraction of a spacing such a gap opens and closes from substep to
-    substep. Left at 0 (sessions 20-22) each one dropped |g| ρ_ref d from the q below it (13
-    of 39 slabs in the 2-D tank at rest's first substep). Only q, the reported pressure's
+    substep. Left at 0, each one would drop |g| ρ_ref d from the q below it (13
+    of 39 slabs in the 2-D tank at rest's first substep, measured). Only q, the reported pressure's
     reference part, depends on it: the reference force acts on particles, and no particle
     lies in an empty slab. A slab inside a column of fluid is not empty of fluid, only of
     particle centres (docs/sph.md, "Aliased slabs")."""

@@ -1,4 +1,4 @@
-"""``dcdc benchmark train``: speed of one training iteration (issue 9 item 2).
+"""``dcdc benchmark train``: speed of one training iteration.
 
 One iteration = the trainer's own :func:`~dcdc.train.loss.unrolled_loss` over
 ``--unroll`` (default 2) neural steps, backward, and an Adam step, on the two-phase tank of

@@ -7,7 +7,7 @@ one concatenated batch for a single forward pass.
 * Batches are a pure function of (seed, step): a resumed run draws exactly the windows
   the interrupted one would have, and every rank of a DDP run draws the same batch and
   keeps its shard ``windows[rank::world]``.
-* Augmentation (DESIGN §5): in 3-D a random rotation about the gravity axis, in 2-D a
+* Augmentation: in 3-D a random rotation about the gravity axis, in 2-D a
   random mirror across it (the only isometry of the plane that keeps gravity); optional
   Gaussian noise on the input positions.
 * :func:`collate` concatenates the windows into one batch with
