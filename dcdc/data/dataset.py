@@ -1,4 +1,4 @@
-"""The trajectory dataset (DESIGN §5): HDF5, one group per trajectory.
+"""The trajectory dataset (docs/datasets.md): HDF5, one group per trajectory.
 
 On disk a dataset is either
 - a **directory** of per-trajectory files ``NAME.h5`` (what ``dcdc generate`` writes: each
