@@ -2,7 +2,9 @@
 
 Each verb lives next to the code it drives and is imported only when used, so
 ``dcdc --help`` stays fast and a verb never pays for another's imports (torch, numba).
-A :class:`~dcdc.errors.DcdcError` becomes one line on stderr and exit status 2.
+A :class:`~dcdc.errors.DcdcError`, a usage mistake (click's usage errors) and a refusal of
+the system (``OSError``: a full disk, a name too long) become one line ``error: ...`` on
+stderr and exit status 2; no traceback.
 """
 from __future__ import annotations
 
@@ -12,6 +14,8 @@ import sys
 import click
 
 from .errors import DcdcError, Interrupted
+
+NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 # verb -> "module:attribute" of a click command or group
 COMMANDS = {
@@ -79,17 +83,41 @@ def main(argv=None):
         click.echo(str(e), err=True)
         sys.exit(e.exit_code)
     except DcdcError as e:
-        click.echo(f"error: {e}", err=True)
-        sys.exit(2)
+        _fail(str(e))
     except click.exceptions.Abort:
         click.echo("aborted", err=True)
         sys.exit(130)
-    except click.ClickException as e:
-        e.show()
+    except NO_ARGS_IS_HELP as e:  # a group without its command: the group's help
+        click.echo(e.ctx.get_help())
         sys.exit(e.exit_code)
+    except click.UsageError as e:  # a bad option or argument: one line, like every error
+        _fail(f"{e.format_message()}{_help_hint(e.ctx)}", e.exit_code)
+    except click.ClickException as e:
+        _fail(e.format_message(), e.exit_code)
     except click.exceptions.Exit as e:
         sys.exit(e.exit_code)
+    except OSError as e:  # the system refused (a full disk, a path too long) outside a writer
+        _fail(_os_message(e))
+    except RecursionError:
+        _fail("input nested too deeply to read (arrays or tables inside each other)")
+    except MemoryError:
+        _fail("out of memory; try a smaller scene, fewer frames or a smaller image")
 
+
+def _fail(message: str, code: int = 2):
+    text = " ".join(str(message).split())  # one line, whatever the message holds
+    click.echo(f"error: {text}", err=True)
+    sys.exit(code)
+
+
+def _help_hint(ctx) -> str:
+    return f" (see '{ctx.command_path} --help')" if ctx is not None else ""
+
+
+def _os_message(e: OSError) -> str:
+    import errno
+    why = "no space left on the device" if e.errno == errno.ENOSPC else (e.strerror or str(e))
+    return f"{e.filename}: {why}" if e.filename is not None else why
 
 if __name__ == "__main__":
     main()

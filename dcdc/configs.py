@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-import os
 import types
 import typing
 from pathlib import Path
@@ -164,11 +163,8 @@ def dumps_toml(d: dict) -> str:
 
 def save_toml(d: dict, path) -> Path:
     """Write ``d`` as TOML atomically (temporary name in the same folder, then rename)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(dumps_toml(d), encoding="utf-8")
-    os.replace(tmp, path)
-    return path
+    from .outputs import write_text
+    return write_text(path, dumps_toml(d))
 
 
 # ------------------------------------------------------------------ --set key=value

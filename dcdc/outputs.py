@@ -7,10 +7,17 @@ is a one-line :class:`~dcdc.errors.DcdcError` before any simulation, and an exis
 is refused unless the user passed ``--overwrite``. Files are then written with
 :func:`atomic_file` (temporary name in the same directory, fsync, ``os.replace``: atomic on
 POSIX), and a set of files that belong together with :func:`atomic_dir` (a temporary
-directory renamed into place), so a folder never mixes the outputs of two runs.
+directory renamed into place), so a folder never mixes the outputs of two runs. HDF5 files
+are built in memory and written by :func:`atomic_h5` (HDF5 does not survive a failed write:
+on a full disk it fails inside its own clean-up and can crash the process).
+
+A failed write (a full disk, a quota, a file system gone read-only) inside any of these
+becomes one :class:`~dcdc.errors.DcdcError` line naming the output, and the temporary file
+or directory is deleted. :func:`run_lock` keeps two processes out of one run directory.
 """
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import tempfile
@@ -20,6 +27,9 @@ from pathlib import Path
 from .errors import DcdcError
 
 TMP_MARK = ".tmp-"  # temporary names: .NAME.tmp-PID (readers skip names starting with ".")
+LOCK_NAME = ".lock"  # in a run directory: flock-ed by the process using it, holds its pid
+# errors of the device rather than of the path: the output could not be written at all
+WRITE_FAILURES = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
 
 
 def _writable_dir(d: Path, target: Path) -> None:
@@ -76,27 +86,113 @@ def tmp_name(path) -> Path:
     return p.with_name(f".{p.name}{TMP_MARK}{os.getpid()}")
 
 
+def write_failure(e: OSError, *paths) -> bool:
+    """True when ``e`` is a failure to write one of ``paths`` or to write at all (a full
+    disk, a quota, a read-only or failing device)."""
+    if e.errno in WRITE_FAILURES:
+        return True
+    names = {os.fspath(p) for p in paths}
+    return e.filename is not None and os.fspath(e.filename) in names
+
+
+def public_name(path) -> Path:
+    """``path`` with temporary names (``.NAME.tmp-PID``) replaced by the names they stand
+    for: the output the user asked for, not the file this process was writing."""
+    parts = []
+    for part in Path(path).parts:
+        if part.startswith(".") and TMP_MARK in part:
+            part = part[1:part.rindex(TMP_MARK)]
+            if part.endswith(".old"):
+                part = part[:-4]
+        parts.append(part)
+    return Path(*parts) if parts else Path(path)
+
+
+def write_error(path, e: OSError) -> DcdcError:
+    """The one-line error for an output ``path`` that could not be written."""
+    path = public_name(path)
+    if e.errno in (errno.ENOSPC, errno.EDQUOT):
+        why = "no space left on the device" if e.errno == errno.ENOSPC else "disk quota exceeded"
+        try:
+            free = shutil.disk_usage(Path(path).parent).free
+            why += f" ({free / 2**20:.1f} MiB free)"
+        except OSError:
+            pass
+    else:
+        why = e.strerror or str(e)
+    return DcdcError(f"cannot write {path}: {why}")
+
+
+@contextmanager
+def writing(path, *tmps):
+    """Turn a failed write of ``path`` (or of its temporary ``tmps``) inside the block into
+    :func:`write_error`; other errors pass through."""
+    try:
+        yield
+    except OSError as e:
+        if not write_failure(e, path, *tmps):
+            raise
+        raise write_error(path, e) from None
+
+
 @contextmanager
 def atomic_file(path):
     """Yield a temporary path next to ``path``; on success fsync it and rename it over
-    ``path``, on any error (or Ctrl-C) delete it."""
+    ``path``, on any error (or Ctrl-C) delete it. A failed write is one DcdcError line."""
     path = Path(path)
     tmp = tmp_name(path)
     try:
-        yield tmp
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        with writing(path, tmp):
+            yield tmp
+            _sync(tmp)
+            os.replace(tmp, path)
     finally:
-        if tmp.exists():
+        if tmp.exists() or tmp.is_symlink():
             tmp.unlink()
+
+
+def _sync(path) -> None:
+    """Flush ``path`` to the device (where a full disk shows at the latest)."""
+    with open(path, "rb+") as fh:
+        os.fsync(fh.fileno())
 
 
 def write_text(path, text: str) -> Path:
     """Write ``text`` to ``path`` atomically."""
     with atomic_file(path) as tmp:
-        Path(tmp).write_text(text)
+        Path(tmp).write_text(text, encoding="utf-8")
     return Path(path)
+
+
+def write_bytes(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically, after checking that the device has room."""
+    path = Path(path)
+    with writing(path):
+        free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
+    if len(data) > free:
+        raise DcdcError(f"cannot write {path}: it needs {len(data) / 2**20:.1f} MiB, the device "
+                        f"has {free / 2**20:.1f} MiB free")
+    with atomic_file(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+    return path
+
+
+@contextmanager
+def atomic_h5(path):
+    """Yield a new HDF5 file (an ``h5py.File``) held in memory; on success its image is
+    written to ``path`` with :func:`write_bytes`. HDF5 itself never writes to the disk, so a
+    full disk is one error line and leaves nothing behind (an HDF5 file written in place
+    fails inside HDF5's clean-up, which can crash the process)."""
+    import h5py
+    f = h5py.File(f"{Path(path).name}-in-memory", "w", driver="core", backing_store=False)
+    try:
+        yield f
+        f.flush()
+        image = f.id.get_file_image()
+    finally:
+        f.close()
+    write_bytes(path, image)
 
 
 @contextmanager
@@ -107,18 +203,69 @@ def atomic_dir(path, overwrite: bool = False):
     path = Path(path)
     tmp = tmp_name(path)
     shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
     try:
-        yield tmp
-        old = None
-        if path.exists():
-            if not overwrite and not (path.is_dir() and not any(path.iterdir())):
-                raise DcdcError(f"{path} appeared while this run was working (use --overwrite)")
-            old = path.with_name(f".{path.name}.old{TMP_MARK}{os.getpid()}")
-            os.replace(path, old)
-        os.replace(tmp, path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        with writing(path, tmp):
+            tmp.mkdir(parents=True)
+            yield tmp
+            _replace_dir(tmp, path, overwrite)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _replace_dir(tmp: Path, path: Path, overwrite: bool) -> None:
+    old = None
+    if path.exists():
+        if not overwrite and not (path.is_dir() and not any(path.iterdir())):
+            raise DcdcError(f"{path} appeared while this run was working (use --overwrite)")
+        old = path.with_name(f".{path.name}.old{TMP_MARK}{os.getpid()}")
+        os.replace(path, old)
+    os.replace(tmp, path)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+@contextmanager
+def run_lock(run, what: str):
+    """Hold an exclusive lock on directory ``run`` (created if missing) while the block runs:
+    a second process asking for it gets "RUN is in use by another WHAT (pid N)" at once.
+    The lock is ``flock`` on ``RUN/.lock`` (which holds the owner's pid), so the kernel
+    releases it when its process ends, however it ends. A directory this call created is
+    removed again if the block fails and leaves nothing in it but the lock file and empty
+    folders."""
+    import fcntl
+    run = Path(run)
+    if run.exists() and not run.is_dir():
+        raise DcdcError(f"{run} is a file, not a directory")
+    created = not run.exists()
+    try:
+        run.mkdir(parents=True, exist_ok=True)
+        fd = os.open(run / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as e:
+        raise DcdcError(f"cannot use {run}: {e.strerror}") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            pid = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            raise DcdcError(f"{run} is in use by another {what} (pid {pid})") from None
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        except OSError:  # a full disk: the lock holds without the pid
+            pass
+        try:
+            yield run
+        except BaseException:
+            if created and _only_lock(run):
+                shutil.rmtree(run, ignore_errors=True)
+            raise
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock
+
+
+def _only_lock(run: Path) -> bool:
+    for _, dirs, files in os.walk(run):
+        if any(f != LOCK_NAME for f in files):
+            return False
+    return True

@@ -49,7 +49,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from ..particles import ParticleSystem, Phase, active_mask
-from ..outputs import TMP_MARK, atomic_file
+from ..outputs import TMP_MARK, atomic_file, atomic_h5
 
 FORMAT = "dcdc-dataset"
 FORMAT_VERSION = 2  # 2: Fletcher-32 on every array, attrs_sha256
@@ -127,9 +127,10 @@ def max_density_ratio(density, birth=None, t_end: float | None = None) -> float:
 def write_trajectory(path, name: str, frames_x, frames_v, times, system: ParticleSystem,
                      attrs: dict) -> Path:
     """Write one trajectory atomically to ``path`` (a ``.h5`` file holding group ``name``):
-    write a temporary file in the same directory, flush, fsync, then rename over ``path``."""
+    built in memory, written to a temporary file in the same directory, fsync-ed, then
+    renamed over ``path`` (:func:`dcdc.outputs.atomic_h5`)."""
     path = Path(path)
-    with atomic_file(path) as tmp, _h5().File(tmp, "w") as f:
+    with atomic_h5(path) as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         g = f.create_group(name)
@@ -506,19 +507,33 @@ def merge(inputs, output, overwrite: bool = False) -> int:
         for t in s:
             verify_trajectory(t)
     if output.suffix == ".h5":
-        with atomic_file(output) as tmp, _h5().File(tmp, "w") as out:
+        _check_merge_memory([s.path for s in sets], output)
+        with atomic_h5(output) as out:
             _copy_groups([ref for s in sets for ref in s._refs], out)
     else:
         output.mkdir(parents=True, exist_ok=True)
         for s in sets:
             for ref in s._refs:
-                with atomic_file(output / f"{ref.group}.h5") as tmp:
-                    if s.path.is_dir():
+                if s.path.is_dir():
+                    with atomic_file(output / f"{ref.group}.h5") as tmp:
                         shutil.copyfile(ref.file, tmp)
-                    else:
-                        with _h5().File(tmp, "w") as out:
-                            _copy_groups([ref], out)
+                else:
+                    with atomic_h5(output / f"{ref.group}.h5") as out:
+                        _copy_groups([ref], out)
     return len(names)
+
+
+def _check_merge_memory(inputs, output: Path) -> None:
+    """A merged ``.h5`` file is built in memory (:func:`dcdc.outputs.atomic_h5`): refuse
+    inputs larger than half this machine's memory before copying any of them."""
+    from ..scene.budget import physical_memory
+    size = sum(f.stat().st_size for p in map(Path, inputs)
+               for f in ([p] if p.is_file() else p.glob("*.h5")))
+    mem = physical_memory()
+    if mem and size > 0.5 * mem:
+        raise DcdcError(f"merging {size / 2**30:.1f} GiB into the single file {output} needs "
+                        f"more than half of this machine's {mem / 2**30:.1f} GiB of memory; "
+                        f"merge into a directory (an output name without .h5) instead")
 
 
 def _copy_groups(refs, out) -> None:

@@ -91,11 +91,12 @@ class _Encoder:
         import imageio_ffmpeg
         self._gen = imageio_ffmpeg.write_frames(
             str(path), size, fps=fps, codec="libx264", quality=6, macro_block_size=1,
-            pix_fmt_out="yuv420p", ffmpeg_log_level="error",
+            pix_fmt_out="yuv420p", ffmpeg_log_level="fatal",  # failures: _failed()
             # the temporary name has no .mp4 suffix; "veryfast" halves the encoder's CPU
             # time against x264's default preset at a similar file size
             output_params=["-f", "mp4", "-preset", "veryfast"])
         self._gen.send(None)
+        self._path = Path(path)
         self._queue, self._error = queue.Queue(maxsize=2), None
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
@@ -110,8 +111,25 @@ class _Encoder:
 
     def put(self, data: bytes) -> None:
         if self._error is not None:
-            raise DcdcError(f"the video encoder failed: {self._error}")
+            raise self._failed(self._error)
         self._queue.put(data)
+
+    def _failed(self, e: Exception) -> DcdcError:
+        """The error for a failed encoder: ffmpeg, told to be quiet, does not say why, and
+        a full disk is the usual reason (a failure to write its output file)."""
+        import errno
+        import shutil
+
+        from ..outputs import public_name, write_error
+        try:
+            full = shutil.disk_usage(self._path.parent).free < 2**20
+        except OSError:
+            full = False
+        if full:
+            return write_error(self._path, OSError(errno.ENOSPC, "No space left on device"))
+        first = (str(e).strip().splitlines() or [type(e).__name__])[0]
+        return DcdcError(f"the video encoder (ffmpeg) failed writing "
+                         f"{public_name(self._path)}: {first}")
 
     def close(self, abort: bool = False) -> None:
         self._queue.put(None)
@@ -120,6 +138,6 @@ class _Encoder:
             self._gen.close()
         except Exception as e:
             if not abort:
-                raise DcdcError(f"the video encoder failed: {e}") from None
+                raise self._failed(e) from None
         if self._error is not None and not abort:
-            raise DcdcError(f"the video encoder failed: {self._error}")
+            raise self._failed(self._error)

@@ -23,8 +23,16 @@ def train_command(config, overrides, out, resume, device, progress):
     from .config import load_config
     from .trainer import train
 
+    import os
+    from contextlib import nullcontext
+
+    from ..outputs import run_lock
+
     cfg = load_config(config, overrides)
     out = out if out is not None else Path("runs") / config.stem
-    path = train(cfg, out, resume=resume, device=device, progress=progress, echo=click.echo)
+    # one process per run directory (the ranks of one torchrun job share rank 0's lock)
+    lock = run_lock(out, "dcdc train") if os.environ.get("RANK", "0") == "0" else nullcontext()
+    with lock:
+        path = train(cfg, out, resume=resume, device=device, progress=progress, echo=click.echo)
     if path is not None:
         click.echo(f"model: {path}")
