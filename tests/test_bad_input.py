@@ -1,4 +1,4 @@
-"""Issue 12: every user mistake ends in one line ``error: ...`` and exit status 2, before any
+"""Every user mistake ends in one line ``error: ...`` and exit status 2, before any
 work starts (no traceback, no half-written output, no runaway allocation).
 
 Each case runs the real CLI in-process (``dcdc.cli.main``), so a traceback would fail it.

@@ -112,7 +112,7 @@ def test_backends_agree_float32_and_bf16_close():
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("normalize", [False, True])
 def test_float32_geometry_is_the_rounded_float64_geometry(dim, normalize):
-    """``build_geometry(dtype=float32)`` (what a float32 network builds, issue 10) stores the
+    """``build_geometry(dtype=float32)`` (what a float32 network builds) stores the
     float64 weights rounded, so the layers see exactly what ``weights_as(float32)`` gave."""
     x = _points(300, dim, seed=3)
     w = _points(40, dim, seed=4)

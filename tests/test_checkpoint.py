@@ -1,4 +1,4 @@
-"""Checkpoint integrity (issue 12) and model ↔ data compatibility (issue 9 item 1)."""
+"""Checkpoint integrity and model ↔ data compatibility."""
 import numpy as np
 import pytest
 import torch

@@ -1,4 +1,4 @@
-"""Dataset integrity (issue 12) and the per-trajectory density-ratio metadata (issue 8)."""
+"""Dataset integrity and the per-trajectory density-ratio metadata."""
 from pathlib import Path
 
 import h5py

@@ -209,7 +209,7 @@ def test_evaluate_cli_members(ckpts, tmp_path, capsys):
 
 
 def test_train_simulate_evaluate_end_to_end(tmp_path, capsys):
-    """Issue 9 item 8: the tiny training config, then `simulate` and `evaluate` with its model."""
+    """End to end: the tiny training config, then `simulate` and `evaluate` with its model."""
     from pathlib import Path
     tiny = Path(__file__).resolve().parents[1] / "examples" / "train_2d_tiny.toml"
     if not tiny.exists():

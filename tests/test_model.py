@@ -408,9 +408,9 @@ def test_step_rejects_inputs_that_would_give_nan_or_a_traceback():
         step(net, x, v[:3], rho, wx, wn)
 
 
-# ---------------------------------------------------------------------- fixed costs (issue 10)
+# ---------------------------------------------------------------------- fixed costs
 def _reference_context(net, x, rho, wx):
-    """The step context as built before issue 10: a fresh float64 search and geometry per call
+    """The step context built the straightforward way: a fresh float64 search and geometry per call
     (``radius_search`` + ``build_geometry`` with float64 weights, no cached wall grid) and the
     eager density plan. The optimised :meth:`CorrectionNet.prepare` must give the same numbers."""
     from dcdc.model.networks import StepContext

@@ -77,7 +77,7 @@ def test_cell_grid_built_once_serves_moving_queries(dim):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_one_pass_search_equals_two_pass_search(dim, dtype):
-    """``capacity`` (the network's one-pass search, issue 10) gives the identical CSR list,
+    """``capacity`` (the network's one-pass search) gives the identical CSR list,
     order included, whether the bound holds or a query overflows it (two-pass fallback)."""
     from dcdc.neighbors import CellGrid
 

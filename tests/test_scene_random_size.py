@@ -1,4 +1,4 @@
-"""Issue 8: 2-D random training scenes large enough to teach collective flow."""
+"""2-D random training scenes large enough to teach collective flow."""
 import numpy as np
 
 from dcdc.scene import parse

@@ -1,4 +1,4 @@
-"""The built-in showcases show their phenomenon (issue 8): checked on coarse 2-D variants
+"""The built-in showcases show their phenomenon: checked on coarse 2-D variants
 (the README reports the default resolutions)."""
 import functools
 
@@ -32,16 +32,12 @@ def _cocktail():
 @pytest.mark.slow
 def test_cocktail_ends_in_four_clean_layers():
     """At the demo's resolution (at ~420 particles the water layer's purity is 0.85).
-    Measured at 15 s with the scene's oil-repelling glass (session 29), three starts: purity
-    per phase 0.92-0.96, oil at the glass 0 %, water <= 0.4 %. With a neutral glass and the
-    pairwise tension's wall images (session 28): purity 0.91-0.98, oil at the glass
-    2.4 / 1.0 / 1.0 %, water <= 0.4 %, juice <= 0.2 %. Before, with the default reference and suction (session 24), three starts:
-    purity per phase 0.91-0.97, oil at the glass 0.68 / 3.7 / 5.7 %, water and juice
-    <= 0.4 %; session 21's (a level per body of fluid, layers from the neighbours' mixture
-    density, no suction) purity 0.90-0.97, oil 3.7 / 1.4 / 3.0 %, water 0-0.6 %; session
-    19's surface-following reference 1.7 / 2.0 / 6.4 %; without any reference (one start)
-    purity 0.884-0.904, oil 7.8 %; without interfacial tension purity 0.74. No phase lines
-    the glass (< 10 % of each)."""
+    Measured at 15 s with the scene's oil-repelling glass, three starts: purity per phase
+    0.92-0.96, oil at the glass 0 %, water <= 0.4 %. With a neutral glass (the pairwise
+    tension's wall images, 90°): purity 0.91-0.98, oil at the glass 2.4 / 1.0 / 1.0 %, water
+    <= 0.4 %, juice <= 0.2 %; without any pressure reference (one start) purity 0.884-0.904,
+    oil 7.8 %; without interfacial tension purity 0.74. No phase lines the glass (< 10 % of
+    each)."""
     order, purity, trapped = _cocktail()
     assert order
     assert (purity >= 0.85).all(), purity
@@ -50,23 +46,24 @@ def test_cocktail_ends_in_four_clean_layers():
 
 @pytest.mark.slow
 def test_cocktail_leaves_under_one_percent_of_each_phase_at_the_glass():
-    """Issue 8's < 1 %. Measured (session 29, the scene's oil-repelling glass, three starts):
+    """The showcase's < 1 %. Measured (the scene's oil-repelling glass, three starts):
     oil 0 / 0 / 0 %, water 0.2-0.4 %, juice and grenadine 0. With a neutral glass (90° for
-    every pair, session 28) the oil kept 2.4 / 1.0 / 1.0 % as one-particle drops on the
+    every pair) the oil keeps 2.4 / 1.0 / 1.0 % as one-particle drops on the
     bowl's bottom, below their departure size (docs/sph.md, "Wetting")."""
     assert (_cocktail()[2] < 0.01).all(), _cocktail()[2]
 
 
 @pytest.mark.slow
 def test_3d_cocktail_ends_in_clean_layers_with_under_one_percent_at_the_glass():
-    """Issue 8's cocktail targets in 3-D: the scene in a 0.7× glass (2 392 particles of the
+    """The cocktail's targets in 3-D: the scene in a 0.7× glass (2 392 particles of the
     default r = 2.5 cm, its 15 s and solver; ~55 s): four layers in density order, purity
     >= 0.9 per phase and < 1 % of every phase held at the glass under denser fluid.
-    Measured with the scene's oil-repelling glass (session 29): none held from the lattice
-    start and from two starts perturbed by 0.1 mm, purity >= 0.993. With a neutral glass
-    (session 28): none from the lattice start, 0.44 % of the oil (1 of 228) from a perturbed
-    one, purity >= 0.995; without the pairwise tension's wall images (:func:`dcdc.sph.interfaces.pairwise_wall_images`) 2.2 % of the oil stays (the
-    full-size 3-D cocktail: 2.6 % then, none now). A 0.6× glass spills water onto the table
+    Measured with the scene's oil-repelling glass: none held from the lattice start and
+    from two starts perturbed by 0.1 mm, purity >= 0.993. With a neutral glass: none from the
+    lattice start, 0.44 % of the oil (1 of 228) from a perturbed one, purity >= 0.995;
+    without the pairwise tension's wall images
+    (:func:`dcdc.sph.interfaces.pairwise_wall_images`) 2.2 % of the oil stays (the full-size
+    3-D cocktail: 2.6 %). A 0.6× glass spills water onto the table
     at the start, whose median height then fails the order."""
     sy = _run("cocktail", 3, 0.7)
     layers = metrics.layer_summary(sy.x, sy.phase, [p.density for p in sy.phases], sy.wall_x,
@@ -81,8 +78,8 @@ def test_hourglass_drains_the_heavy_phase():
     sy = _run("hourglass", 2, 1.0)
     heavy = np.flatnonzero([p.name == "heavy" for p in sy.phases])[0]
     below = np.mean(sy.x[sy.phase == heavy, 1] < 0.9)  # the neck is at half the 1.8 m cavity
-    # issue 8: >= 90 % within the scene's duration (15 s). Measured with the scene's
-    # closed-container settings and interfacial tension (session 31): 100 % at 15 s in three
+    # the showcase's target: >= 90 % within the scene's duration (15 s). Measured with the
+    # scene's closed-container settings and interfacial tension: 100 % at 15 s in three
     # starts (88-100 % at 10 s, 56-78 % at 5 s; the exchange through the neck is chaotic);
     # without the tension 99.6-100 % at 15 s here but not converged at finer radii; with the
     # open-scene defaults 88 % at 15 s, 96 % at 22 s

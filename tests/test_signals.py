@@ -1,4 +1,4 @@
-"""Issue 12, runaway jobs: real signals sent to real ``dcdc`` processes.
+"""Runaway jobs: real signals sent to real ``dcdc`` processes.
 
 ``dcdc generate --workers 2`` on a tiny ballistic dataset (slowed by DCDC_BALLISTIC_DELAY so
 signals land mid-run): SIGKILL of the parent leaves no worker behind and no new file

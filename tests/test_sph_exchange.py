@@ -60,7 +60,7 @@ def test_quick_lock_exchange_runs():
     check's ensemble, at 5 mm of three), and information rows with XSPH and artificial
     viscosity off and with the given settings as they are. The fronts are judged against
     Benjamin's ½ ± 15 % only at 5 mm, where each current is 10 particle rows deep: at
-    10 mm (5 rows) they are information, below the band (0.40 / 0.42 in session 29). At 10 mm halving that damping changes the heavy front by
+    10 mm (5 rows) they are information, below the band (0.40 / 0.42, measured). At 10 mm halving that damping changes the heavy front by
     +1.6 % over ten starts (three gave −6.5 %: one run changes by 12 % sd, docs/sph.md
     "Closed containers"), against +92 % with the open-scene defaults;
     without the reference and with the full damping the heavy front crawls (Fr 0.08

@@ -369,7 +369,7 @@ def test_a_particle_size_drop_leaves_the_floor_only_above_the_departure_bond_num
     """A drop of one particle (D = 2r = 5 cm) on a wall with a 90° contact angle detaches when
     its Bond number Δρ g D²/σ exceeds Fritz's departure value, (0.0208 θ)² = 3.5 at θ = 90°
     (Fritz 1935, Phys. Z. 36; D_d = 0.0208 θ sqrt(σ/(gΔρ))). σ = 2 N/m (Bo 16): all four drops
-    rise; σ = 20 N/m, the cocktail's (Bo 1.6): none does. Measured (session 28, 3 s): every
+    rise; σ = 20 N/m, the cocktail's (Bo 1.6): none does. Measured (3 s): every
     drop rose at σ = 2, 5, 6 and 8.5 N/m, none at 7, 10 and 20 (2-D; 3-D: 5 all, 10 seven of
     eight, 20 none): the departure lies at Bo ≈ 3-5, Fritz's 3.5 within its noise. This is
     what keeps the 2-D cocktail's last oil particles on the glass (docs/sph.md, "Walls for the
@@ -403,8 +403,8 @@ def test_wall_tension_is_checked_and_needs_the_pairwise_model():
 def test_a_drop_from_90_degrees_dewets_to_youngs_120_degrees(theta):
     """A 2-D half-disc drop (R = 8 spacings, 1 250 particles, no gravity) on a wall whose
     tensions give Young's angle θ through the drop, cos θ = (σ_w,ambient − σ_w,drop) / σ:
-    from its 90° start its contact line recedes until θ. Measured (session 29,
-    `benchmarks/contact_angle.py`): 119° at 3 s for 120°; 86° for 90°; 60° is approached
+    from its 90° start its contact line recedes until θ. Measured
+    (`benchmarks/contact_angle.py`): 119° at 3 s for 120°; 86° for 90°; 60° is approached
     slowly (69° at 4 s). With the walls' coefficient σ_w / S instead of 2σ_w / S the 120°
     drop stopped at 110° (the mirrored system's factor two). Not tested because not true:
     from a 150° start the drop does not come back (138° for 90°, 167° for 120°; docs/sph.md,

@@ -173,7 +173,7 @@ def test_the_built_in_closed_scenes_carry_the_closed_settings():
     (dcdc.sph.reference.closed_container) and a reference of their light phase's density
     (the box, filled with whole rows) or 0.9 of it (the hourglass, whose lattice leaves gaps
     at the shoulders that must be able to rise).
-    The hourglass also has interfacial tension between its liquids (session 31: with it the
+    The hourglass also has interfacial tension between its liquids (with it the
     drain converges under refinement, docs/sph.md "Why tension makes it converge")."""
     import dataclasses
 

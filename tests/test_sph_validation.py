@@ -108,12 +108,12 @@ def test_thin_film_rise_is_measured():
 @pytest.mark.slow
 def test_thin_film_rises_alike_under_deep_and_shallow_fluid():
     """The quick 2-D row is the full one (r = 5 mm, the film two rows thick); measured
-    ratio 1.03 (session 23's three starts 0.93-1.22)."""
+    ratio 1.03 (three starts 0.93-1.22)."""
     _all_checks_pass(_thin_film_2d())
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 8: a film one particle row thick (r = 10 mm) "
+@pytest.mark.xfail(strict=True, reason="a film one particle row thick (r = 10 mm) "
                    "rises 1-5 mm under 0.3 m and not at all under 0.12 m over four starts "
                    "(ratio 0): a light particle in the floor row cannot trade places with a "
                    "heavy one in the incompressible packing (docs/sph.md, 'The film one "

@@ -43,7 +43,8 @@ from ..particles import ParticleSystem
 
 @dataclass
 class Guard:
-    """Bounds of a rollout that counts as stable (docs/evaluation.md, "Steps to failure").
+    """Bounds of a rollout that counts as stable (docs/evaluation.md, "Metric definitions":
+    steps to failure).
 
     max_speed: a particle faster than this [m/s] is an explosion (the SPH solver's bound).
     max_in_walls: the largest fraction of active particles allowed inside walls (0 stops at

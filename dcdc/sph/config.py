@@ -104,33 +104,33 @@ class SPHConfig:
     reference_share: the share of the density that the automatic reference takes out
         (default :data:`dcdc.sph.reference.AUTO_REFERENCE` = 1, in (0, 1]): below 1 the
         fluid keeps that part of its weight in the pair force, which closes gaps under the
-        level as long as the solves only push (0.9 without suction, the default until
-        2026-12-05); 1 together with ``reference_suction`` frees the thin film of light
-        fluid under heavy fluid (docs/sph.md, "What holds the thin film").
+        level as long as the solves only push (0.9 suits a solver without suction); 1
+        together with ``reference_suction`` frees the thin film of light fluid under heavy
+        fluid (docs/sph.md, "What holds the thin film").
     reference_suction: the constant-density solve bounds the total pressure, p' + q >= 0,
         instead of p' >= 0, for its particles (a full neighbourhood, not expanded) more than
         a diameter under the level: a liquid under a head can be below its hydrostatic
-        pressure, so a gap under the level rises as a bubble does. On by default since
-        2026-12-05 (docs/sph.md, "What holds the thin film").
+        pressure, so a gap under the level rises as a bubble does. On by default
+        (docs/sph.md, "What holds the thin film").
     reference_level: L [m], the height (along -g) where q = 0, fixed (only with
         ``reference_surface = false``): for a closed, completely filled container any height
         at or above the fluid (e.g. its lid). Unset (None, the default) = the top of the
         fluid at the start, the highest particle centre + r (a scene's fill height at any
         resolution).
-    reference_surface: L follows the fluid (default on since 2026-12-04): at every substep
+    reference_surface: L follows the fluid (default on): at every substep
         it is one particle diameter below the lowest free-surface particle (a one-sided
         neighbourhood, walls included) of each body of fluid, a connected component of the
-        neighbour graph (:func:`dcdc.sph.reference.surface_levels`; one level per body
-        since 2026-12-05), so the reference holds wherever the fluid is covered up to L, in
+        neighbour graph (:func:`dcdc.sph.reference.surface_levels`; one level per body),
+        so the reference holds wherever the fluid is covered up to L, in
         open scenes too: the surface's troughs, splashes and droplets still attached to the
         bulk lower L instead of floating, and fluid spilled apart from it has a level of its
         own. With no free surface (a closed, filled body) L stays at the fill height. No
         effect without gravity. ``false`` together with ``reference_stratified = false`` and
         ``reference_density`` 0 is the solver without any reference (docs/sph.md, "A level
         that follows the surface").
-    reference_stratified: ρ_ref varies with height (default on since 2026-12-05): at every
+    reference_stratified: ρ_ref varies with height (default on): at every
         substep, 0.9 × the lowest kernel mixture density of the neighbours,
-        ρ̄ = Σ W ρ0 / Σ W (since 2026-12-05; before, the lightest phase present), in each
+        ρ̄ = Σ W ρ0 / Σ W (not the lightest phase present: a lone particle does not set it), in each
         slab one particle diameter thick below L (:func:`dcdc.sph.reference.strata`), so
         under a layer of heavy fluid the reference takes out that layer's level, not just the
         lightest phase's share of it (docs/sph.md, "A reference that follows the layers").

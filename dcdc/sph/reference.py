@@ -54,7 +54,7 @@ AUTO_REFERENCE = 1.0
 ``reference_density``, ρ_ref = 1.0 × the lightest phase's density (per slab with
 ``reference_stratified``): the lightest phase is weightless in the pair force, and
 ``reference_suction`` (on by default with it) lets the solves pull, so gaps under the level
-rise as a bubble does. Without suction a share below 1 (0.9, the default until 2026-12-05)
+rise as a bubble does. Without suction a share below 1 (e.g. 0.9)
 keeps a tenth of the weight to close those gaps, which holds thin films of light fluid under
 heavy fluid (docs/sph.md, "What holds the thin film", "Closed containers")."""
 
