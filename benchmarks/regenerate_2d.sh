@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The whole 2-D set the shipped 2-D networks train and are scored on, with the solver's
-# current defaults (docs/datasets.md, "The 2-D set regenerated with suction"; 15-17 min on
+# current defaults (docs/datasets.md, "2-D"; 15-17 min on
 # 2 cores):   bash benchmarks/regenerate_2d.sh [OUT=datasets/2d_su]
 # The deep columns, necks and locks come from benchmarks/make_deep_columns.py's scene files
-# (docs/datasets.md, "2-D deep columns, necks and locks"); they are written first if absent.
+# (docs/datasets.md, "2-D"); they are written first if absent.
 # No `set -e` on the generate lines: a diverged trajectory (recorded as NAME.failed.json)
 # makes `dcdc generate` exit 1, and the next split must still run. Re-running resumes.
 set -uo pipefail

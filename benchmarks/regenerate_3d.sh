@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The whole 3-D set the shipped 3-D networks are scored on (stage 7 trained on it), with the solver's
-# current defaults (docs/datasets.md, "The 3-D set regenerated with suction"; 33 min on
+# current defaults (docs/datasets.md, "3-D"; 33 min on
 # the idle 2-core machine):   bash benchmarks/regenerate_3d.sh [OUT=datasets/3d_su] [PART=all|train|test]
 # PART=train writes what fine-tuning needs (random train + valid, the 133 deep columns);
 # PART=test the held-out ratios, the built-ins and the 10 s canyon. The deep columns come
