@@ -119,3 +119,21 @@ def test_doc_citations_name_sections_that_exist():
         elif not any(t.startswith(_norm(title)) for t in titles[doc]):
             bad.append(f'{where}: docs/{doc}.md has no section "{title}"')
     assert not bad, "citations of doc sections that do not exist:\n" + "\n".join(bad)
+
+
+# ---------------------------------------------------------------- the front page and links
+def test_readme_is_a_front_page():
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 200, f"README.md has {len(lines)} lines; details belong in docs/"
+
+
+LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)\s]*)?\)")
+
+
+@pytest.mark.parametrize("rel", ["README.md", "CHANGELOG.md", "benchmarks/README.md"]
+                         + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").glob("*.md")))
+def test_relative_links_resolve(rel):
+    page = ROOT / rel
+    bad = [t for t in LINK.findall(page.read_text(encoding="utf-8"))
+           if "://" not in t and not t.startswith("mailto:") and not (page.parent / t).exists()]
+    assert not bad, f"{rel} links to files that do not exist: {bad}"
