@@ -100,12 +100,13 @@ def test_score_trajectory_from_a_later_frame():
 
 def test_aggregate():
     rows = [{"err_n1_mm": 1.0, "rollout_mm": None, "order_ok": True, "order_ok_true": True,
-             "stable": True, "steps": 10},
+             "layers_ok": True, "stable": True, "steps": 10},
             {"err_n1_mm": 3.0, "rollout_mm": 4.0, "order_ok": False, "order_ok_true": True,
-             "stable": False, "steps": 6}]
+             "layers_ok": False, "stable": False, "steps": 6}]
     a = aggregate(rows)
-    assert a["err_n1_mm"] == 2.0 and a["rollout_mm"] == 4.0 and a["sinkhorn_mm"] is None
+    assert a["err_n1_mm"] == 2.0 and a["rollout_mm"] == 4.0 and a["w2_mm"] is None
     assert a["order_ok"] == 0.5 and a["stable"] == 1 and a["steps_min"] == 6
+    assert a["layers_ok"] == 0.5
 
 
 @pytest.fixture(scope="module")

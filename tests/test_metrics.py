@@ -105,13 +105,63 @@ def test_position_and_nearest_error():
     assert np.isnan(M.position_error(np.full((2, 2), np.nan), true))
 
 
-def test_sinkhorn_distance():
+@pytest.mark.parametrize("n", [100, 1000, 10_000])
+def test_wasserstein_distance_of_a_shifted_cloud_is_the_shift(n):
     rng = np.random.default_rng(0)
-    a = rng.random((150, 2))
-    assert M.sinkhorn_distance(a, a) == pytest.approx(0.0, abs=1e-6)
-    d = M.sinkhorn_distance(a, a + [0.1, 0.0])
-    assert d == pytest.approx(0.1, rel=0.05)  # a shift is transported by its length
-    assert M.sinkhorn_distance(a, a + [0.3, 0.0]) > 2.5 * d
+    a = rng.random((n, 3))
+    assert M.wasserstein_distance(a, a) == pytest.approx(0.0, abs=1e-6)
+    assert M.wasserstein_distance(a, a + [0.1, 0.0, 0.0]) == pytest.approx(0.1, rel=1e-6)
+    assert M.wasserstein_distance(a, a + [2.0, 0.5, 0.0]) == pytest.approx(np.hypot(2.0, 0.5),
+                                                                           rel=1e-6)
+
+
+def test_wasserstein_distance_ignores_identities_and_sees_unequal_clouds():
+    rng = np.random.default_rng(1)
+    a = rng.random((300, 2))
+    assert M.wasserstein_distance(a[::-1], a) == pytest.approx(0.0, abs=1e-6)
+    # half the cloud moved 0.2 m up: W2 = sqrt(½ · 0.2²) at most, well above 0
+    b = a.copy()
+    b[:150, 1] += 0.2
+    d = M.wasserstein_distance(a, b)
+    assert 0.02 < d <= np.sqrt(0.5) * 0.2 + 1e-9
+    assert np.isnan(M.wasserstein_distance(a, a[:0]))
+    assert np.isnan(M.wasserstein_distance(a, np.full((3, 2), np.nan)))
+
+
+def _box_layers(rng, n=400, mixed=False):
+    """Two phases in a 1 m wide box: heavy (phase 1) in the lower half, light (0) above;
+    ``mixed``: the phases drawn at random over the whole column (same counts)."""
+    x = np.stack([rng.random(n), rng.random(n)], axis=1)
+    phase = (x[:, 1] < 0.5).astype(int)
+    if mixed:
+        phase = rng.permutation(phase)
+    return x, phase
+
+
+def test_height_distance_and_purity_tell_a_mixed_column_from_layers():
+    rng = np.random.default_rng(2)
+    clean, ph = _box_layers(rng)
+    clean2, ph2 = _box_layers(np.random.default_rng(3))
+    mixed, phm = _box_layers(np.random.default_rng(4), mixed=True)
+    depth = M.column_depth(clean)
+    same = M.height_distance(clean2, ph2, clean, ph, 2)
+    apart = M.height_distance(mixed, phm, clean, ph, 2)
+    assert (same < 0.05 * depth).all()
+    # a phase spread over the column instead of its half: W1 = 1/4 of the column
+    assert apart == pytest.approx([0.25, 0.25], abs=0.04)
+    pur_clean = M.neighbour_purity_per_phase(clean, ph, 0.1, 2)
+    pur_mixed = M.neighbour_purity_per_phase(mixed, phm, 0.1, 2)
+    assert (pur_clean > 0.8).all() and (np.abs(pur_mixed - 0.5) < 0.1).all()
+    assert M.layers_like(M.neighbour_purity_per_phase(clean2, ph2, 0.1, 2), pur_clean, same, depth)
+    assert not M.layers_like(pur_mixed, pur_clean, apart, depth)
+    # each criterion alone fails the verdict
+    assert not M.layers_like(pur_mixed, pur_clean, same, depth)
+    assert not M.layers_like(pur_clean, pur_clean, apart, depth)
+    # a layer shifted by more than 5 % of the column fails on heights alone
+    shifted = M.height_distance(clean + [0.0, 0.08], ph, clean, ph, 2)
+    assert shifted == pytest.approx([0.08, 0.08])
+    assert not M.layers_like(pur_clean, pur_clean, shifted, depth)
+    assert not M.layers_like([np.nan], [np.nan], [np.nan], depth)
 
 
 def test_wall_penetrations():
@@ -124,15 +174,6 @@ def test_wall_penetrations():
     assert mask.tolist() == [False, False, True, True, True]
     assert M.wall_penetrations(fluid, wall, normals, 0.05) == 3
     assert M.wall_penetrations(fluid, wall[:0], normals[:0], 0.05) == 0
-
-
-def test_sinkhorn_distance_of_clouds_far_apart_against_the_blur():
-    # transport costs of ~4 m² against ε = blur² = 0.0025 m² overflow POT's stabilised
-    # Sinkhorn (NaN, measured for shifts >= 2 m); the log-domain fallback gives the shift
-    rng = np.random.default_rng(1)
-    a = rng.random((90, 2)) * [0.4, 0.2]
-    d = M.sinkhorn_distance(a, a + [2.0, 0.5], blur=0.05)
-    assert d == pytest.approx(np.hypot(2.0, 0.5), rel=0.05)
 
 
 def _basin(r=0.025):

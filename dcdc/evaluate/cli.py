@@ -126,9 +126,11 @@ def _labels(paths) -> list[str]:
 
 COLUMNS = [  # (heading, key, format) of the stdout table
     ("n+1 mm", "err_n1_mm", "{:.2f}"), ("n+2 mm", "err_n2_mm", "{:.2f}"),
-    ("rollout mm", "rollout_mm", "{:.1f}"), ("sinkhorn mm", "sinkhorn_mm", "{:.1f}"),
+    ("rollout mm", "rollout_mm", "{:.1f}"), ("W2 mm", "w2_mm", "{:.1f}"),
     ("KE err", "ke_error", "{:.3f}"), ("COM err", "com_height_error", "{:.3f}"),
     ("order", "order_ok", "{}"), ("purity", "purity", "{:.3f}"),
+    ("purity/SPH", "purity_ratio_min", "{:.2f}"), ("height W1", "height_w1_rel_max", "{:.3f}"),
+    ("layers", "layers_ok", "{}"),
     ("vol err", "volume_error", "{:.4f}"), ("mom m/s", "momentum_error", "{:.3f}"),
     ("in walls", "in_walls_max", "{:.0f}"), ("contacts/step", "contacts_per_step", "{:.1f}"),
     ("steps", "steps", "{}"), ("ms/step", "ms_per_step", "{:.1f}"),
@@ -139,7 +141,7 @@ def _cell(row, key, fmt):
     v = row.get(key)
     if v is None:
         return "-"
-    if isinstance(v, bool) or key == "order_ok":
+    if isinstance(v, bool) or key in ("order_ok", "layers_ok"):
         return "yes" if v is True or v == 1.0 else ("no" if v in (False, 0.0) else f"{v:.2f}")
     return fmt.format(v)
 

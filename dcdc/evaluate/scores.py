@@ -16,6 +16,8 @@ from ..errors import DcdcError
 from .rollout import Guard, NeuralSimulator, run
 
 MM = 1e3  # metres -> millimetres
+PURITY_RADIUS = 4.0  # neighbour purity within this many particle radii (the SPH support h)
+MIXING_EVERY = 0.5  # seconds between the frames of the mixing curves
 
 
 def _finite(v):
@@ -95,7 +97,8 @@ def physical_state(x, phase, phases, radius, wall_x, domain_min, active):
         "median_height": (M.phase_heights(x, phase, P, stat="median") - floor),
         "order_ok": M.density_order_ok(x, phase, rho, stat="median"),
         "order_ok_com": M.density_order_ok(x, phase, rho, stat="mean"),
-        "purity": M.neighbour_purity(x, phase, 4.0 * radius),
+        "purity": M.neighbour_purity(x, phase, PURITY_RADIUS * radius),
+        "purity_per_phase": M.neighbour_purity_per_phase(x, phase, PURITY_RADIUS * radius, P),
         "volumes": M.phase_volumes(psi, phase, V0, P),
         "density_error": M.density_error(psi),
     }
@@ -104,14 +107,67 @@ def physical_state(x, phase, phases, radius, wall_x, domain_min, active):
 def compare_states(pred_x, true_x, traj, active) -> tuple[dict, dict, np.ndarray]:
     """:func:`physical_state` of a predicted and a true frame of ``traj`` (particles
     ``active``) and the relative error of each phase's centre-of-mass height,
-    |h_pred - h_true| / |h_true| (docs/evaluation.md; its largest value is "COM err")."""
+    |h_pred - h_true| / |h_true| (docs/evaluation.md; its largest value is "COM err").
+    ``pred`` also gets the layering against the truth (:func:`layering`)."""
     dmin = np.asarray(traj.attrs["domain_min"], dtype=np.float64)
     pred, true = (physical_state(np.asarray(x, dtype=np.float64), traj.phase, traj.phases,
                                  traj.radius, traj.wall_x, dmin, active)
                   for x in (pred_x, true_x))
     with np.errstate(invalid="ignore", divide="ignore"):
         com_rel = np.abs(pred["com_height"] - true["com_height"]) / np.abs(true["com_height"])
+    pred.update(layering(pred_x, true_x, traj.phase, len(traj.phases), active,
+                         pred["purity_per_phase"], true["purity_per_phase"]))
     return pred, true, com_rel
+
+
+def layering(pred_x, true_x, phase, n_phases: int, active, purity, purity_true) -> dict:
+    """How a predicted state's layers compare with the truth's (docs/evaluation.md,
+    "Layers"): per phase the 1-Wasserstein distance of the height distributions
+    (:func:`dcdc.metrics.height_distance`) relative to the true column's depth, the ratio
+    of the per-phase neighbour purities, and the verdict :func:`dcdc.metrics.layers_like`."""
+    xp = np.asarray(pred_x, dtype=np.float64)[active]
+    xt = np.asarray(true_x, dtype=np.float64)[active]
+    ph = np.asarray(phase)[active]
+    hd = M.height_distance(xp, ph, xt, ph, n_phases)
+    depth = M.column_depth(xt)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.asarray(purity, float) / np.asarray(purity_true, float)
+        rel = hd / depth
+    return {"height_w1": hd, "height_w1_rel": rel, "purity_ratio": ratio,
+            "layers_ok": M.layers_like(purity, purity_true, hd, depth)}
+
+
+def _nanmin(a):
+    a = np.asarray(a, float)
+    return _finite(np.nanmin(a)) if np.isfinite(a).any() else None
+
+
+def _nanmax(a):
+    a = np.asarray(a, float)
+    return _finite(np.nanmax(a)) if np.isfinite(a).any() else None
+
+
+def mixing_curves(pred_pos, true_pos, traj, s0: int, steps: int, radius: float) -> dict:
+    """The mixing over time against the truth at the same times (docs/evaluation.md,
+    "Layers"): every :data:`MIXING_EVERY` seconds of the rollout (and at its last frame),
+    per phase the neighbour purity of the prediction and of the truth and the height
+    distance relative to the true column. Rollout frame k is ground-truth frame s0 + k."""
+    P = len(traj.phases)
+    every = max(1, int(round(MIXING_EVERY / traj.frame_dt)))
+    ks = sorted(set(range(0, steps + 1, every)) | {steps})
+    out = {"time": [], "purity_pred": [], "purity_true": [], "height_w1_rel": []}
+    for k in ks:
+        act = traj.active(s0 + k)
+        xp, xt = pred_pos[k][act].astype(np.float64), true_pos[s0 + k][act].astype(np.float64)
+        ph = traj.phase[act]
+        pp = M.neighbour_purity_per_phase(xp, ph, PURITY_RADIUS * radius, P)
+        pt = M.neighbour_purity_per_phase(xt, ph, PURITY_RADIUS * radius, P)
+        rel = M.height_distance(xp, ph, xt, ph, P) / M.column_depth(xt)
+        out["time"].append(float(traj.time[s0 + k]))
+        out["purity_pred"].append([_finite(v) for v in pp])
+        out["purity_true"].append([_finite(v) for v in pt])
+        out["height_w1_rel"].append([_finite(v) for v in rel])
+    return out
 
 
 def displace(system, perturb: float, seed: int):
@@ -130,7 +186,7 @@ def perturbed_start(traj, frame: int, perturb: float, seed: int):
 
 
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
-                     guard: Guard | None = None, sinkhorn_points: int = 1000,
+                     guard: Guard | None = None, ot_points: int = 2000,
                      contact: bool = True, start_frame: int = 0, perturb: float = 0.0,
                      seed: int = 0, one_two_step: bool = True) -> dict:
     """All scores of ``model`` on ground-truth trajectory ``traj`` (a
@@ -173,10 +229,10 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         mom.append(float(np.linalg.norm(dP)) / max(float(mass[act].sum()), 1e-30))
     act = traj.active(s0 + K)
     pred, true, com_rel = compare_states(ro.position[K], pos_t[s0 + K], traj, act)
-    sink = [M.sinkhorn_distance(ro.position[K][act & (phase == p)],
-                                pos_t[s0 + K][act & (phase == p)],
-                                blur=2 * traj.radius, max_points=sinkhorn_points)
-            for p in range(len(phases)) if (act & (phase == p)).any()]
+    w2 = [M.wasserstein_distance(ro.position[K][act & (phase == p)],
+                                 pos_t[s0 + K][act & (phase == p)], max_points=ot_points)
+          for p in range(len(phases)) if (act & (phase == p)).any()]
+    mixing = mixing_curves(ro.position, pos_t, traj, s0, K, traj.radius)
     ke_scale = float(np.mean(ke_t)) if ke_t else float("nan")
     st = ro.stopped
     vol_err = M.volume_error(pred["volumes"], true["volumes"])
@@ -189,8 +245,8 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "err_n1_mm": _finite(MM * n1), "err_n2_mm": _finite(MM * n2),
         "rollout_mm": _finite(MM * np.mean(near)) if near else None,
         "position_mm": _finite(MM * np.mean(perr)) if perr else None,
-        "sinkhorn_mm": _finite(MM * np.mean(sink)) if sink else None,
-        "sinkhorn_mm_per_phase": [_finite(MM * s) for s in sink],
+        "w2_mm": _finite(MM * np.mean(w2)) if w2 else None,
+        "w2_mm_per_phase": [_finite(MM * s) for s in w2],
         "ke_error": _finite(np.mean(np.abs(np.subtract(ke_p, ke_t))) / ke_scale) if ke_t else None,
         "momentum_error": _finite(np.mean(mom)) if mom else None,
         "com_height_error": _finite(np.nanmax(com_rel)) if np.isfinite(com_rel).any() else None,
@@ -199,6 +255,12 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "order_ok": bool(pred["order_ok"]), "order_ok_true": bool(true["order_ok"]),
         "order_ok_com": bool(pred["order_ok_com"]),
         "purity": _finite(pred["purity"]), "purity_true": _finite(true["purity"]),
+        "purity_per_phase": [_finite(v) for v in pred["purity_per_phase"]],
+        "purity_per_phase_true": [_finite(v) for v in true["purity_per_phase"]],
+        "purity_ratio_min": _nanmin(pred["purity_ratio"]),
+        "height_w1_mm_per_phase": [_finite(MM * v) for v in pred["height_w1"]],
+        "height_w1_rel_max": _nanmax(pred["height_w1_rel"]),
+        "layers_ok": bool(pred["layers_ok"]),
         "volume_error": _finite(np.nanmax(np.abs(vol_err))) if np.isfinite(vol_err).any() else None,
         "density_error": _finite(pred["density_error"]),
         "density_error_true": _finite(true["density_error"]),
@@ -211,12 +273,12 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "sph_s_per_simulated_s": _sph_cost(traj),
         "curves": {"time": ro.time[1:].tolist(), "rollout_mm": [MM * e for e in near],
                    "position_mm": [MM * e for e in perr], "ke_pred": ke_p, "ke_true": ke_t,
-                   "in_walls": ro.in_walls.tolist()},
+                   "in_walls": ro.in_walls.tolist(), "mixing": mixing},
     }
 
 
-MEMBER_KEYS = ("com_height_error", "rollout_mm", "sinkhorn_mm", "purity", "order_ok", "stable",
-               "steps")
+MEMBER_KEYS = ("com_height_error", "rollout_mm", "w2_mm", "purity", "purity_ratio_min",
+               "height_w1_rel_max", "layers_ok", "order_ok", "stable", "steps")
 
 
 def score_members(model, traj, members: int = 1, perturb: float = 1e-6, **kw) -> dict:
@@ -256,8 +318,9 @@ def _sph_cost(traj):
     return _finite(wall / sim) if sim > 0 else None
 
 
-NUMERIC = ("err_n1_mm", "err_n2_mm", "rollout_mm", "position_mm", "sinkhorn_mm", "ke_error",
-           "momentum_error", "com_height_error", "purity", "purity_true", "volume_error",
+NUMERIC = ("err_n1_mm", "err_n2_mm", "rollout_mm", "position_mm", "w2_mm", "ke_error",
+           "momentum_error", "com_height_error", "purity", "purity_true", "purity_ratio_min",
+           "height_w1_rel_max", "volume_error",
            "density_error", "density_error_true", "in_walls_max", "contacts_per_step", "ms_per_step",
            "s_per_simulated_s", "sph_s_per_simulated_s")
 
@@ -270,6 +333,7 @@ def aggregate(rows: list[dict]) -> dict:
         vals = [r[k] for r in rows if r.get(k) is not None]
         out[k] = float(np.mean(vals)) if vals else None
     out["order_ok"] = float(np.mean([r["order_ok"] for r in rows])) if rows else None
+    out["layers_ok"] = float(np.mean([r["layers_ok"] for r in rows])) if rows else None
     out["order_ok_true"] = float(np.mean([r["order_ok_true"] for r in rows])) if rows else None
     out["stable"] = int(sum(r["stable"] for r in rows))
     out["steps_min"] = int(min((r["steps"] for r in rows), default=0))
