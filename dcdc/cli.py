@@ -8,6 +8,7 @@ stderr and exit status 2; no traceback.
 """
 from __future__ import annotations
 
+import functools
 import importlib
 import sys
 
@@ -57,12 +58,59 @@ class LazyGroup(click.Group):
         if name in self.lazy:
             module, attr = self.lazy[name].split(":")
             try:
-                return getattr(importlib.import_module(module), attr)
+                return _checked_first(getattr(importlib.import_module(module), attr))
             except ModuleNotFoundError as e:
                 if e.name and module.startswith(e.name):  # the verb's own module is absent
                     return None
                 raise
         return super().get_command(ctx, name)
+
+
+REPORT_OPTIONS = ("--json",)  # options naming a report file written after the work
+
+
+def _checked_first(cmd):
+    """Make ``cmd`` check, before it runs, its report file (``--json FILE``: a missing or
+    read-only directory is an error line at once, not after minutes of work) and its
+    ``--device`` (as ``dcdc train`` does: cpu, or cuda where torch has it)."""
+    if not isinstance(cmd, click.Command) or getattr(cmd, "_checked_first", False):
+        return cmd
+    options = [p for p in cmd.params if isinstance(p, click.Option) and not p.is_flag]
+    reports = [p.name for p in options if any(o in REPORT_OPTIONS for o in p.opts)]
+    devices = [p.name for p in options if "--device" in p.opts]
+    if (reports or devices) and cmd.callback is not None:
+        callback = cmd.callback
+
+        @functools.wraps(callback)
+        def checked(*args, **kwargs):
+            from .outputs import check_file
+            for name in reports:
+                if kwargs.get(name):
+                    check_file(kwargs[name], overwrite=True)
+            for name in devices:
+                if kwargs.get(name) not in (None, "cpu"):
+                    check_device(str(kwargs[name]))
+            return callback(*args, **kwargs)
+        cmd.callback = checked
+    cmd._checked_first = True
+    return cmd
+
+
+def check_device(device: str) -> None:
+    """Refuse a ``--device`` torch does not know or cannot use here (``dcdc train``'s rule:
+    :func:`dcdc.train.trainer.resolve_device`; ``cuda:N`` names one GPU)."""
+    import torch
+
+    from .train.trainer import Dist, resolve_device
+    try:
+        dev = torch.device(device)
+    except (RuntimeError, ValueError):
+        dev = None
+    resolve_device(dev.type if dev is not None else device, Dist())
+    if dev is not None and dev.type == "cuda" and dev.index is not None \
+            and dev.index >= torch.cuda.device_count():
+        raise DcdcError(f"--device {device}: torch sees {torch.cuda.device_count()} CUDA "
+                        f"device(s)")
 
 
 @click.group(cls=LazyGroup, lazy=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
@@ -78,7 +126,7 @@ def benchmark():
 
 def main(argv=None):
     try:
-        cli.main(args=argv, standalone_mode=False)
+        cli.main(args=argv, prog_name="dcdc", standalone_mode=False)
     except Interrupted as e:  # Ctrl-C / SIGTERM: "aborted", 128 + signal (dcdc.data.interrupt)
         click.echo(str(e), err=True)
         sys.exit(e.exit_code)

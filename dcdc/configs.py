@@ -154,6 +154,8 @@ def load_toml(path) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise DcdcError(f"{path}: not valid TOML ({e})") from None
+    except RecursionError:
+        raise DcdcError(f"{path}: arrays or tables nested too deeply to read") from None
 
 
 def dumps_toml(d: dict) -> str:

@@ -63,6 +63,9 @@ def check_dir(path, overwrite: bool | None = None) -> Path:
     parents are created later). ``overwrite=False`` also refuses an existing non-empty
     directory; ``None`` accepts one (a resumable dataset directory)."""
     p = Path(path)
+    if p.is_symlink() and not p.exists():
+        raise DcdcError(f"cannot write into {p}: it is a symbolic link to {os.readlink(p)}, "
+                        f"which leads nowhere (a loop or a missing target)")
     if p.exists():
         if not p.is_dir():
             raise DcdcError(f"cannot write into {p}: it is a file, not a directory")

@@ -163,3 +163,250 @@ def test_lock_is_released_when_its_process_dies(tmp_path):
         holder.wait()
     with run_lock(run, "dcdc train"):
         pass
+
+
+# ------------------------------------------------------------------ checked before the work
+SCENE = """name = "{name}"
+dim = 2
+radius = {radius}
+seed = {seed}
+duration = 0.1
+[domain]
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+[phases.water]
+density = 1000.0
+[walls.tank]
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+hollow = true
+[[fluid]]
+phase = "water"
+shape = "box"
+min = [0.1, 0.1]
+max = [0.5, 0.5]
+"""
+
+
+def scene(tmp_path, name="tank", radius=0.025, seed=0) -> Path:
+    p = tmp_path / "s.toml"
+    p.write_text(SCENE.format(name=name, radius=radius, seed=seed))
+    return p
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"seed": 99999999999999999999}, ["seed must be an integer from 0 to 2^63 - 1"]),
+    ({"seed": -1}, ["seed must be an integer from 0 to 2^63 - 1"]),
+    ({"name": "a" * 5000}, ["name is 5000 characters long; at most 200"]),
+    ({"radius": 5e-324}, ["particles", "over the limit"]),
+])
+def test_scene_values_that_failed_after_the_work(tmp_path, capsys, kwargs, words):
+    f = scene(tmp_path, **kwargs)
+    code, _, err = dcdc(capsys, "scene", "show", f)
+    assert_one_line_error(code, err, *words)
+    out = tmp_path / "ds"
+    code, _, err = dcdc(capsys, "generate", f, "--simulator", "ballistic", "--no-progress",
+                        "-o", out)
+    assert_one_line_error(code, err, *words)
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("argv", [
+    ["scene", "random", "--seed", "-1"],
+    ["generate", "--random", "1", "--seed", "99999999999999999999", "-o", "{o}/ds"],
+])
+def test_seed_options_are_bounded(tmp_path, capsys, argv):
+    code, _, err = dcdc(capsys, *[a.format(o=tmp_path) for a in argv])
+    assert_one_line_error(code, err, "--seed", "0<=x<=9223372036854775807")
+    assert not (tmp_path / "ds").exists()
+
+
+@pytest.mark.parametrize("argv", [
+    ["validate-sph", "--quick", "--case", "hydrostatic", "--json", "{o}/missing/v.json"],
+    ["benchmark", "cconv", "--json", "{o}/missing/c.json"],
+])
+def test_report_file_checked_before_the_work(tmp_path, capsys, argv):
+    """The message is check_file's: the work (minutes) never ran."""
+    code, out, err = dcdc(capsys, *[a.format(o=tmp_path) for a in argv])
+    assert_one_line_error(code, err, "missing/", "does not exist")
+    assert out == ""
+
+
+# ------------------------------------------------------------------ no traceback
+def test_nesting_too_deep_to_read(tmp_path, capsys):
+    deep = "[" * 100_000 + "]" * 100_000
+    (tmp_path / "deep.toml").write_text(f'name = "a"\ndim = 2\nx = {deep}\n')
+    code, _, err = dcdc(capsys, "scene", "show", tmp_path / "deep.toml")
+    assert_one_line_error(code, err, "deep.toml", "nested too deeply")
+    (tmp_path / "deep.json").write_text(deep)
+    code, _, err = dcdc(capsys, "scene", "import", tmp_path / "deep.json", "-o",
+                        tmp_path / "d.toml")
+    assert_one_line_error(code, err, "deep.json", "nested too deeply")
+    (tmp_path / "cfg.toml").write_text(f"x = {deep}\n")
+    code, _, err = dcdc(capsys, "train", tmp_path / "cfg.toml", "--out", tmp_path / "run")
+    assert_one_line_error(code, err, "cfg.toml", "nested too deeply")
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.fixture
+def bad_trajs(tmp_path):
+    """Copies of a sample trajectory: NaN in one frame, all inf, no frames, flat positions."""
+    import h5py
+    out = {}
+    for kind in ("nan", "inf", "zero", "flat"):
+        p = tmp_path / f"{kind}.h5"
+        shutil.copy(TRAJ, p)
+        with h5py.File(p, "r+") as f:
+            g = f["hourglass_2d"]
+            x = g["position"][()]
+            if kind == "nan":
+                g["position"][3, :5] = np.nan
+            else:
+                arrays = {"inf": {"position": np.full_like(x, np.inf)},
+                          "zero": {k: g[k][()][:0] for k in ("position", "velocity", "time")},
+                          "flat": {"position": x.reshape(len(x), -1)}}[kind]
+                for k, a in arrays.items():
+                    del g[k]
+                    g.create_dataset(k, data=a)
+        out[kind] = p
+    return out
+
+
+VIEWERS = {
+    "render": ["render", "{t}", "-o", "{o}/a.gif", "--width", "64", "--no-progress"],
+    "view": ["view", "{t}", "--html", "{o}/v.html"],
+    "export": ["export", "{t}", "--format", "ply", "-o", "{o}/ply", "--no-progress"],
+}
+
+
+@pytest.mark.parametrize("kind, words", [
+    ("zero", ["holds no frames"]),
+    ("inf", ["holds no finite position"]),
+    ("flat", ["position has shape [51, 1072], not [frames, particles, 2]"]),
+])
+@pytest.mark.parametrize("command", sorted(VIEWERS))
+def test_unusable_trajectory_is_one_line(tmp_path, capsys, bad_trajs, command, kind, words):
+    out = tmp_path / "out"
+    out.mkdir()
+    argv = [a.format(t=bad_trajs[kind], o=out) for a in VIEWERS[command]]
+    code, _, err = dcdc(capsys, *argv)
+    assert_one_line_error(code, err, f"{kind}.h5", *words)
+    assert list(out.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", sorted(VIEWERS))
+def test_non_finite_positions_are_reported(tmp_path, capsys, bad_trajs, command):
+    argv = [a.format(t=bad_trajs["nan"], o=tmp_path) for a in VIEWERS[command]]
+    code, _, err = dcdc(capsys, *argv)
+    assert code == 0, err
+    assert err.splitlines()[0] == (f"note: {bad_trajs['nan']}: trajectory hourglass_2d has 5 "
+                                   f"non-finite particle positions in 1 of 51 frames, from "
+                                   f"frame 3 (the run that wrote it diverged?)")
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--fps", "nan"], ["--fps", "got nan"]),
+    (["--width", "200000"], ["200000 x", "at most 16384 pixels a side"]),
+    (["--supersample", "1000"], ["--supersample must be from 1 to 16"]),
+])
+def test_render_sizes_are_bounded(tmp_path, capsys, args, words):
+    out = tmp_path / "a.gif"
+    code, _, err = dcdc(capsys, "render", TRAJ, "-o", out, "--no-progress", *args)
+    assert_one_line_error(code, err, *words)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_canvas_over_half_the_memory_is_refused(monkeypatch):
+    from dcdc.errors import DcdcError
+    from dcdc.render.frames import check_canvas
+    monkeypatch.setattr("dcdc.scene.budget.physical_memory", lambda: 2.0**30)
+    check_canvas(800, 600, 2)
+    with pytest.raises(DcdcError, match="needs 1.4 GiB, more than half of this machine's 1.0"):
+        check_canvas(4000, 2000, 2)
+
+
+@pytest.mark.parametrize("command", [["scene", "show", "lock_exchange"],
+                                     ["scene", "random", "--seed", "1"]])
+def test_unknown_picture_format(tmp_path, capsys, command):
+    code, out, err = dcdc(capsys, *command, "--image", tmp_path / "x.bmpx")
+    assert_one_line_error(code, err, "x.bmpx", "unknown picture format '.bmpx'", ".png")
+    assert out == "" and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("device, words", [
+    ("tpu9", ["--device must be cpu or cuda (got 'tpu9')"]),
+    ("meta", ["--device must be cpu or cuda (got 'meta')"]),
+    ("cuda", ["--device cuda"]),
+])
+def test_simulate_device_checked_like_train(tmp_path, capsys, device, words):
+    import torch
+    if device == "cuda" and torch.cuda.is_available():
+        pytest.skip("CUDA is available here")
+    code, _, err = dcdc(capsys, "simulate", "--model", MODEL, "--scene", "lock_exchange",
+                        "--steps", "2", "--device", device, "--out", tmp_path / "x.h5")
+    assert_one_line_error(code, err, *words)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_output_folder_that_is_a_symlink_loop(tmp_path, capsys):
+    loop = tmp_path / "L"
+    loop.symlink_to(loop)
+    code, _, err = dcdc(capsys, "generate", "lock_exchange", "--simulator", "ballistic",
+                        "-o", loop)
+    assert_one_line_error(code, err, "symbolic link", "leads nowhere")
+
+
+# ------------------------------------------------------------------ no silent wrong result
+def test_mesh_with_a_nan_vertex_is_refused(tmp_path, capsys):
+    shutil.copy(ROOT / "examples/my_scene.toml", tmp_path / "s.toml")
+    lines = (ROOT / "examples/pillar.obj").read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("v "))
+    lines[k] = "v nan 0.0 0.1"
+    (tmp_path / "pillar.obj").write_text("\n".join(lines) + "\n")
+    code, _, err = dcdc(capsys, "scene", "show", tmp_path / "s.toml")
+    assert_one_line_error(code, err, "pillar.obj", "1 vertex(es)", "not a finite number")
+
+
+@pytest.mark.parametrize("argv", [
+    ["scene", "show", "lock_exchange", "--max-particles", "nan"],
+    ["generate", "lock_exchange", "--simulator", "ballistic", "--max-particles", "nan",
+     "-o", "{o}/ds"],
+    ["simulate", "--model", MODEL, "--scene", "lock_exchange", "--steps", "2",
+     "--max-particles", "nan", "--out", "{o}/x.h5"],
+])
+def test_nan_particle_budget_is_refused(tmp_path, capsys, argv):
+    code, _, err = dcdc(capsys, *[str(a).format(o=tmp_path) for a in argv])
+    assert_one_line_error(code, err, "--max-particles must be a number > 0")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_nan_particle_budget_from_the_environment(capsys, monkeypatch):
+    monkeypatch.setenv("DCDC_MAX_PARTICLES", "nan")
+    code, _, err = dcdc(capsys, "scene", "show", "lock_exchange")
+    assert_one_line_error(code, err, "DCDC_MAX_PARTICLES must be a number > 0")
+
+
+def test_sph_settings_checked_with_the_ballistic_simulator(tmp_path, capsys):
+    code, _, err = dcdc(capsys, "generate", "lock_exchange", "--simulator", "ballistic",
+                        "--sph", "cfl=abc", "-o", tmp_path / "ds")
+    assert_one_line_error(code, err, "sph.cfl must be a float")
+    assert not (tmp_path / "ds").exists()
+
+
+# ------------------------------------------------------------------ messages
+@pytest.mark.parametrize("argv, words", [
+    (["generate", "--bogus"], ["No such option '--bogus'", "(see 'dcdc generate --help')"]),
+    (["render"], ["Missing option", "(see 'dcdc render --help')"]),
+    (["nosuch"], ["No such command 'nosuch'", "(see 'dcdc --help')"]),
+    (["scene", "show", "lock_exchange", "--dim", "7"], ["'--dim'", "7 is not in the range"]),
+])
+def test_usage_errors_are_one_line(capsys, argv, words):
+    code, out, err = dcdc(capsys, *argv)
+    assert_one_line_error(code, err, *words)
+    assert len(err.strip().splitlines()) == 1 and "Usage:" not in err and out == ""
+
+
+def test_a_group_without_its_command_shows_its_help(capsys):
+    code, out, err = dcdc(capsys, "scene")
+    assert out.startswith("Usage: dcdc scene") and "random" in out and err == ""

@@ -207,6 +207,28 @@ class _Ref:
     group: str
 
 
+def _check_shapes(ref: _Ref, g, attrs: dict) -> None:
+    """The arrays of trajectory group ``g`` agree with each other and with ``dim``:
+    position and velocity [T, N, d], time [T], per-particle arrays [N]."""
+    where = f"{ref.file}: trajectory {ref.group}"
+    dim = attrs.get("dim")
+    x = g["position"].shape
+    empty = len(x) == 2 and x[1] == 0  # no fluid particle, as older writers stored it
+    if not empty and (len(x) != 3 or (dim is not None and x[2] != int(dim) and x[1] > 0)):
+        raise DcdcError(f"{where}: position has shape {list(x)}, not [frames, particles, "
+                        f"{dim if dim is not None else 'd'}]")
+    if g["velocity"].shape != x:
+        raise DcdcError(f"{where}: velocity has shape {list(g['velocity'].shape)}, position "
+                        f"{list(x)}")
+    if "time" in g and g["time"].shape != x[:1]:
+        raise DcdcError(f"{where}: {g['time'].shape[0] if g['time'].ndim else 0} times for "
+                        f"{x[0]} frames")
+    for key in ("phase", "density", "birth", "death"):
+        if key in g and g[key].shape != x[1:2]:
+            raise DcdcError(f"{where}: {key} has shape {list(g[key].shape)} for {x[1]} "
+                            f"particles")
+
+
 class Trajectory:
     """One trajectory. Arrays are read from disk on first access and cached."""
 
@@ -222,6 +244,7 @@ class Trajectory:
                 raise DcdcError(f"{ref.file}: trajectory {ref.group} lacks {', '.join(missing)}")
             self.attrs = {k: _attr(v) for k, v in g.attrs.items()}
             self.shape = g["position"].shape
+            _check_shapes(ref, g, self.attrs)
             self._has_death = "death" in g
             stored = self.attrs.get("attrs_sha256")
             if stored is not None and stored != attrs_digest(g.attrs):

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from ..outputs import check_dir
+from ..scene.format import SEED_MAX
 from . import interrupt
 from .dataset import is_complete, removed_count
 from .jobs import (Job, _check_same_job, _write_json, check_duration, code_version, parse_shard,
@@ -141,7 +142,8 @@ def _write_index(out_dir: Path, summary: dict) -> None:
 @click.option("-o", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Dataset directory (one NAME.h5 per trajectory).")
 @click.option("--random", "n_random", type=int, default=0, help="Generate N random scenes instead.")
-@click.option("--seed", type=int, default=0, show_default=True, help="First random-scene seed.")
+@click.option("--seed", type=click.IntRange(0, SEED_MAX), default=0, show_default=True,
+              help="First random-scene seed.")
 @click.option("--dim", type=click.IntRange(2, 3), default=None,
               help="Dimension (default: the scene's; 2 = cross-section of a 3-D scene; random: 2).")
 @click.option("--resolution", type=float, default=1.0, show_default=True,
@@ -195,7 +197,7 @@ def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, mi
         jobs = scene_jobs(scenes, dim, resolution, duration, split, overrides or None, max_particles)
     for j in jobs:
         j.max_particles = max_particles
-    if simulator == "sph" and overrides:
+    if overrides:  # SPH settings: checked whichever simulator runs (ballistic stores them)
         from ..sph import SPHConfig
         SPHConfig.from_dict(overrides)  # fail fast on a typo
     summary = generate(jobs, out, workers, shard, simulator, retry_failed, not no_progress,

@@ -49,11 +49,18 @@ def load_mesh(path, scale=1.0, translate=None):
     import trimesh
 
     try:
-        mesh = trimesh.load(str(path), force="mesh")
+        # unprocessed: trimesh's processing drops non-finite vertices (and their faces)
+        # without a word, which builds another wall than the file describes
+        mesh = trimesh.load(str(path), force="mesh", process=False)
     except Exception as e:  # trimesh raises many types for broken files
         raise DcdcError(f"cannot read mesh {path}: {e}") from None
     if not len(getattr(mesh, "faces", [])):
         raise DcdcError(f"mesh {path} has no triangles")
+    bad = np.flatnonzero(~np.isfinite(np.asarray(mesh.vertices)).all(axis=1))
+    if len(bad):
+        raise DcdcError(f"mesh {path}: {len(bad)} vertex(es) with a coordinate that is not a "
+                        f"finite number (first: {np.asarray(mesh.vertices)[bad[0]].tolist()})")
+    mesh.process()
     mesh = mesh.copy()
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     mesh.update_faces(_kept_faces(np.asarray(mesh.faces)) & mesh.nondegenerate_faces())

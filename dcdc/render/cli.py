@@ -17,8 +17,9 @@ def _progress(total, enabled, desc):
 
 def _fps(traj, stride, fps):
     if fps is not None:
-        if fps <= 0:
-            raise DcdcError(f"--fps must be > 0 (got {fps})")
+        if not 0 < fps <= 1000:  # nan fails too
+            raise DcdcError(f"--fps must be a number of frames per second in (0, 1000] "
+                            f"(got {fps})")
         return fps
     return float(min(max(round(1.0 / (traj.frame_dt * stride)), 1), 50))  # real time
 

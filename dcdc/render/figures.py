@@ -23,19 +23,59 @@ from .frames import AXES, FrameRenderer, parse_cut, scene_bounds
 from .overlay import font_size, hstack, legend_band, note, title_band, vstack
 
 
-def open_trajectory(path, name: str | None = None):
+def open_trajectory(path, name: str | None = None, warn=None):
     """The trajectory ``name`` of the dataset file/directory ``path``; without a name the
-    only one it holds."""
+    only one it holds. Its positions are checked first (what ``render``, ``export`` and
+    ``view`` read): a trajectory without frames or without one finite position is an
+    error; non-finite positions in some frames (a diverged run) are reported through
+    ``warn`` (default: a ``note:`` line on stderr)."""
     from ..data.dataset import Dataset
     ds = Dataset(path)
     if name is not None:
-        return ds[name]
-    if len(ds) == 1:
-        return ds[0]
-    if len(ds) == 0:
+        traj = ds[name]
+    elif len(ds) == 1:
+        traj = ds[0]
+    elif len(ds) == 0:
         raise DcdcError(f"{path}: holds no complete trajectory")
-    names = ", ".join(ds.names[:5]) + (", …" if len(ds) > 5 else "")
-    raise DcdcError(f"{path} holds {len(ds)} trajectories ({names}): choose one with --trajectory")
+    else:
+        names = ", ".join(ds.names[:5]) + (", …" if len(ds) > 5 else "")
+        raise DcdcError(f"{path} holds {len(ds)} trajectories ({names}): choose one with "
+                        f"--trajectory")
+    check_positions(traj, path, warn)
+    return traj
+
+
+def check_positions(traj, path, warn=None, block_bytes: int = 2**26) -> None:
+    """Scan the stored positions of ``traj`` (in blocks of frames of about ``block_bytes``):
+    raise for no frames or no finite position, ``warn`` about frames holding non-finite
+    ones."""
+    if traj.n_frames == 0:
+        raise DcdcError(f"{path}: trajectory {traj.name} holds no frames")
+    n = traj.n_particles
+    if n == 0:
+        return
+    step = max(1, block_bytes // (n * traj.dim * 4))
+    bad_frames, bad_values, first = 0, 0, None
+    for a in range(0, traj.n_frames, step):
+        x = traj._get("position", slice(a, min(a + step, traj.n_frames)))
+        bad = ~np.isfinite(x).all(axis=2)
+        per_frame = bad.sum(axis=1)
+        if first is None and per_frame.any():
+            first = a + int(np.flatnonzero(per_frame)[0])
+        bad_frames += int((per_frame > 0).sum())
+        bad_values += int(per_frame.sum())
+    if bad_values == traj.n_frames * n:
+        raise DcdcError(f"{path}: trajectory {traj.name} holds no finite position (all "
+                        f"{traj.n_frames} frames are NaN or infinite: the run diverged)")
+    if bad_values:
+        text = (f"{path}: trajectory {traj.name} has {bad_values} non-finite particle "
+                f"positions in {bad_frames} of {traj.n_frames} frames, from frame {first} (the "
+                f"run that wrote it diverged?)")
+        if warn is None:
+            import click
+            click.echo(f"note: {text}", err=True)
+        else:
+            warn(text)
 
 
 def select_frames(traj, frames: str | None = None, stride: int = 1) -> list[int]:

@@ -26,6 +26,9 @@ BACKGROUND = np.array([0.975, 0.975, 0.97])
 WALL_COLOR = np.array([0.55, 0.56, 0.6])
 WALL_ALPHA = {2: 0.3, 3: 0.25}
 AXES = "xyz"
+MAX_SIDE = 16384  # pixels per side of a picture (video encoders and viewers stop near here)
+MAX_SUPERSAMPLE = 16
+CANVAS_BYTES = 48  # per supersampled pixel: depth, ids, wall colours and the frame buffers
 _NONE2, _NONE3 = np.zeros((0, 0)), np.zeros((0, 0, 3))  # "no walls" for resolve()
 
 
@@ -75,6 +78,24 @@ def default_camera(traj, width: int, height: int | None = None, **view) -> Camer
     return fit_camera(lo, hi, width, height, scene=str(traj.attrs.get("scene", "")), **view)
 
 
+def check_canvas(width: int, height: int, supersample: int) -> None:
+    """Refuse, before allocating, a picture too large to draw: a side over
+    :data:`MAX_SIDE` pixels, a supersampling factor outside 1..:data:`MAX_SUPERSAMPLE`, or
+    a supersampled canvas over half this machine's memory."""
+    if not 1 <= supersample <= MAX_SUPERSAMPLE:
+        raise DcdcError(f"--supersample must be from 1 to {MAX_SUPERSAMPLE} (got {supersample})")
+    if max(width, height) > MAX_SIDE:
+        raise DcdcError(f"a picture of {width} x {height} pixels is too large: at most "
+                        f"{MAX_SIDE} pixels a side (--width, --height)")
+    from ..scene.budget import physical_memory
+    need = float(width) * height * supersample**2 * CANVAS_BYTES
+    mem = physical_memory()
+    if mem and need > 0.5 * mem:
+        raise DcdcError(f"a picture of {width} x {height} pixels at --supersample "
+                        f"{supersample} needs {need / 2**30:.1f} GiB, more than half of this "
+                        f"machine's {mem / 2**30:.1f} GiB: lower --width or --supersample")
+
+
 class FrameRenderer:
     """Draws frames of ``traj`` seen by ``camera`` as uint8 RGB arrays [H, W, 3]."""
 
@@ -82,8 +103,7 @@ class FrameRenderer:
                  cut: tuple[int, float] | None = None, walls: bool = True):
         if camera.dim != traj.dim:
             raise DcdcError(f"a {camera.dim}-D camera cannot show a {traj.dim}-D trajectory")
-        if supersample < 1:
-            raise DcdcError(f"supersample must be >= 1 (got {supersample})")
+        check_canvas(camera.width, camera.height, supersample)
         self.traj, self.camera, self.ss, self.cut = traj, camera, int(supersample), cut
         self.shape = (camera.height * self.ss, camera.width * self.ss)
         self.colors = np.array([p.color for p in traj.phases], np.float64).reshape(-1, 3)

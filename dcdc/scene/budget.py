@@ -31,15 +31,27 @@ def default_limit() -> float:
     if not v:
         return DEFAULT_MAX_PARTICLES
     try:
-        return float(v)
+        limit = float(v)
     except ValueError:
-        raise DcdcError(f"DCDC_MAX_PARTICLES must be a number (got {v!r})") from None
+        limit = math.nan
+    if not limit > 0:
+        raise DcdcError(f"DCDC_MAX_PARTICLES must be a number > 0 (inf: no limit; got {v!r})")
+    return limit
+
+
+def _floor(x: float) -> float:
+    """math.floor for a count that may be infinite (a radius of 5e-324 m)."""
+    return float(math.floor(x)) if math.isfinite(x) else x
+
+
+def _ceil(x: float) -> float:
+    return float(math.ceil(x)) if math.isfinite(x) else x
 
 
 def _box_points(lo, hi, spacing: float) -> float:
     n = 1.0
     for a, b in zip(lo, hi):
-        n *= max(0.0, math.floor(max(b - a, 0.0) / spacing) + 1)
+        n *= max(0.0, _floor(max(b - a, 0.0) / spacing) + 1)
     return n
 
 
@@ -72,14 +84,14 @@ def estimate(s: dict) -> dict:
     emitted = 0.0
     for e in s["emitter"]:
         if e.get("shape") == "box":  # floor(side / spacing) points per side, at least one
-            side = (lambda v: max(1, math.floor(v / sp + 1e-9)))
+            side = (lambda v: max(1, _floor(v / sp + 1e-9)))
             per_layer = side(e["height"]) * (1 if dim == 2 else side(e["width"]))
         else:
             rad = e["radius"] if e["radius"] is not None else 2 * sp
-            n = 2 * math.floor(rad / sp + 1e-9) + 1
+            n = 2 * _floor(rad / sp + 1e-9) + 1
             per_layer = n if dim == 2 else n * n
         interval = sp / e["speed"] if e["rate"] is None else per_layer / e["rate"]
-        emitted += per_layer * math.ceil((e["stop"] - e["start"]) / interval)
+        emitted += per_layer * _ceil((e["stop"] - e["start"]) / interval)
     walls = 0.0
     if s["walls"]:
         pad = (s["wall_thickness"] or 4 * r) + sp
@@ -112,9 +124,11 @@ def check(s: dict, source: str, frames: int | None = None,
     particles = est["fluid"] + est["emitted"]
     nbytes = (est["wall_lattice"] * BYTES_PER_LATTICE_POINT
               + (est["fluid"] + est["emitted"]) * BYTES_PER_PARTICLE
-              + (frames or 0) * particles * s["dim"] * 4 * 2)  # float32 positions + velocities
+              + (frames * particles * s["dim"] * 4 * 2 if frames else 0.0))  # float32 x, v
     est.update(points=points, bytes=nbytes)
     limit = default_limit() if max_particles is None else float(max_particles)
+    if not limit > 0:  # nan would turn the budget off
+        raise DcdcError(f"--max-particles must be a number > 0 (inf: no limit; got {limit:g})")
     what = (f"{source}: needs ~{_human(points)} particles to sample (fluid {_human(particles)}, "
             f"wall lattice {_human(est['wall_lattice'])}; ~{_gib(nbytes)} of memory)")
     if points > limit:

@@ -5,6 +5,7 @@ import click
 import numpy as np
 
 from ..outputs import check_file, write_text
+from .format import SEED_MAX
 
 
 def _summary(system, scene) -> str:
@@ -54,7 +55,8 @@ def show_command(scene, dim, resolution, image, overwrite, max_particles):
     """Validate and describe SCENE (a built-in name or a .toml file)."""
     from . import get_scene
     if image:
-        check_file(image, overwrite)
+        from .draw import check_image
+        check_image(image, overwrite)
     sc = get_scene(scene)
     sc.check_solver()
     system = sc.realize(dim=dim, resolution=resolution, max_particles=max_particles)
@@ -78,7 +80,7 @@ def copy_command(name, output, overwrite):
 
 
 @scene_group.command("random")
-@click.option("--seed", type=int, required=True)
+@click.option("--seed", type=click.IntRange(0, SEED_MAX), required=True)
 @click.option("--dim", type=click.IntRange(2, 3), default=2, show_default=True)
 @click.option("--max-ratio", type=float, default=10.0, show_default=True,
               help="Largest density ratio between phases (curriculum parameter; 1 = single density).")
@@ -94,9 +96,11 @@ def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, out
     """A random training scene, reproducible from --seed."""
     from .budget import check_duration
     from .random import RandomSceneConfig, random_scene_text
-    for path in (output, image):
-        if path:
-            check_file(path, overwrite)
+    if output:
+        check_file(output, overwrite)
+    if image:
+        from .draw import check_image
+        check_image(image, overwrite)
     check_duration(duration)
     cfg = RandomSceneConfig(dim=dim, max_ratio=max_ratio, min_ratio=min_ratio,
                             density_range=density_range, duration=duration)

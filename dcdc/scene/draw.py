@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..outputs import atomic_file
+from ..errors import DcdcError
+from ..outputs import atomic_file, check_file
 from ..particles import ParticleSystem
 
 
@@ -68,6 +69,19 @@ def draw(system: ParticleSystem, path, title: str | None = None, x=None, active=
             fig.savefig(tmp, dpi=90, bbox_inches="tight", format=path.suffix[1:].lower() or "png")
     finally:
         plt.close(fig)
+    return path
+
+
+def check_image(path, overwrite: bool = False) -> Path:
+    """Check, before any work, that ``path`` can be written and names a picture format
+    matplotlib writes (by its suffix; none = PNG)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    path = check_file(path, overwrite)
+    fmt = path.suffix[1:].lower()
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if fmt and fmt not in formats:
+        raise DcdcError(f"{path}: unknown picture format {path.suffix!r} (use "
+                        f"{', '.join('.' + f for f in sorted(formats))})")
     return path
 
 

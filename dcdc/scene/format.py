@@ -41,16 +41,16 @@ from ..particles import DEFAULT_RADIUS, ParticleSystem, Phase
 FRAME_DT = 0.02
 
 # ------------------------------------------------------------------ schema
-# kinds: str, int, bool, float, pos (>0), nonneg (>=0), L (length > 0), L0 (length >= 0),
-# vec (dim floats), vecL (dim floats, a position/length), vec3 / vec3L (3 floats / lengths,
-# whatever dim), scale (a factor > 0 or one per axis), color, profileL ([[r, y], ...]
-# lengths), pairL ([a, b] lengths), pair ([a, b] floats), table (free-form)
+# kinds: str, int, seed (0 .. 2^63 - 1), bool, float, pos (>0), nonneg (>=0), L (length > 0),
+# L0 (length >= 0), vec (dim floats), vecL (dim floats, a position/length), vec3 / vec3L
+# (3 floats / lengths, whatever dim), scale (a factor > 0 or one per axis), color, profileL
+# ([[r, y], ...] lengths), pairL ([a, b] lengths), pair ([a, b] floats), table (free-form)
 REQ = object()  # marks a required key
 
 TOP = {
     "name": ("str", REQ), "description": ("str", ""), "dim": ("dim", REQ),
     "radius": ("pos", DEFAULT_RADIUS), "duration": ("pos", 2.0), "frame_dt": ("pos", FRAME_DT),
-    "gravity": ("vec", None), "seed": ("int", 0), "wall_thickness": ("L", None),
+    "gravity": ("vec", None), "seed": ("seed", 0), "wall_thickness": ("L", None),
     "domain": ("section", None), "phases": ("section", REQ), "walls": ("section", {}),
     "fluid": ("list", []), "emitter": ("list", []), "solver": ("table", {}),
 }
@@ -74,7 +74,7 @@ WALL_SHAPES = {
     "hourglass": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
                   "neck": ("L", REQ), "neck_height": ("L", None), "thickness": ("L", None)},
     "terrain": {"x": ("pairL", REQ), "z": ("pairL", REQ), "base": ("float", REQ),
-                "slope": ("float", 0.1), "seed": ("int", None), "roughness": ("L0", 0.05),
+                "slope": ("float", 0.1), "seed": ("seed", None), "roughness": ("L0", 0.05),
                 "channels": ("int", 2), "channel_depth": ("L0", 0.15), "channel_width": ("L", 0.3),
                 "depressions": ("int", 3), "depression_depth": ("L0", 0.15),
                 "depression_radius": ("L", 0.3), "slice_z": ("float", None)},
@@ -106,6 +106,10 @@ EMITTER_MESH = {"shape": ("str", REQ), "phase": ("str", REQ), **MESH_PLACE,
                 "interval": ("pos", REQ)}
 EMITTER_SHAPES = {"nozzle": EMITTER, "box": EMITTER_BOX, "mesh": EMITTER_MESH}
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+# a scene's name becomes file names (NAME_3d.failed.json, its temporary .NAME_3d.h5.tmp-PID):
+# with this limit they fit the 255 bytes a file name may have
+NAME_MAX = 200
+SEED_MAX = 2**63 - 1  # seeds are stored as int64 in datasets
 DEFAULT_COLORS = [(0.85, 0.2, 0.15), (0.2, 0.7, 0.25), (0.15, 0.35, 0.85), (0.95, 0.75, 0.1),
                   (0.6, 0.3, 0.75), (0.1, 0.7, 0.75), (0.9, 0.45, 0.1), (0.5, 0.5, 0.5)]
 
@@ -176,9 +180,13 @@ class _Checker:
             if not isinstance(v, str):
                 self.fail(path, f"must be a string (got {v!r})")
             return v
-        if kind == "int":
+        if kind in ("int", "seed"):
             if not isinstance(v, int) or isinstance(v, bool):
                 self.fail(path, f"must be an integer (got {v!r})")
+            if kind == "seed" and not 0 <= v <= SEED_MAX:
+                self.fail(path, f"must be an integer from 0 to 2^63 - 1 (got {v})")
+            if abs(v) > SEED_MAX:
+                self.fail(path, f"must be an integer of at most 2^63 - 1 in size (got {v})")
             return v
         if kind == "dim":
             if not isinstance(v, int) or isinstance(v, bool) or v not in (2, 3):
@@ -260,6 +268,9 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     s = ck.table("", raw, TOP, dim)
     if not NAME_RE.match(s["name"]):
         ck.fail("name", "must be letters, digits, _ or - (starting with a letter)")
+    if len(s["name"]) > NAME_MAX:
+        ck.fail("name", f"is {len(s['name'])} characters long; at most {NAME_MAX} (file names "
+                        f"are made from it)")
     s["gravity"] = s["gravity"] if s["gravity"] is not None else [0.0, -9.81, 0.0][:dim]
     if s["domain"] is not None:  # else derived from walls and fluid (derive_domain)
         s["domain"] = ck.table("domain", s["domain"], DOMAIN, dim)
@@ -1026,6 +1037,8 @@ def parse(text: str, source: str = "scene", path: Path | None = None, builtin=Fa
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise DcdcError(f"{source}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise DcdcError(f"{source}: arrays or tables nested too deeply to read") from None
     return Scene(validate(raw, text, source), text, path, builtin)
 
 

@@ -44,6 +44,8 @@ def read_json(path) -> object:
         raise DcdcError(f"{path.name}: cannot read it ({e})") from None
     except json.JSONDecodeError as e:
         raise DcdcError(f"{path.name}: not valid JSON ({e.msg} at line {e.lineno}, column {e.colno})") from None
+    except RecursionError:
+        raise DcdcError(f"{path.name}: arrays or objects nested too deeply to read") from None
 
 
 class Reader:

@@ -215,6 +215,8 @@ def scene_system(path, radius: float = PARTICLE_RADIUS, frames: int = 1,
         raise DcdcError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
         raise DcdcError(f"{path}: not a JSON scene ({str(e).splitlines()[0]})") from None
+    except RecursionError:
+        raise DcdcError(f"{path}: arrays or objects nested too deeply to read") from None
     if not isinstance(scene, dict) or not scene.get("walls") or not scene.get("fluids"):
         raise DcdcError(f"{path}: a DeepLagrangianFluids scene needs 'walls' and 'fluids' lists")
     base = path.parent
