@@ -110,6 +110,10 @@ class LossConfig:
     step_weights: tuple[float, ...] = ()  # weight per unrolled step; () = 1/unroll each
     gamma: float = 0.5  # exponent of the distance ‖x − x_true‖^γ
     neighbor_scale: float = 40.0  # weight exp(−n_i / neighbor_scale); 0 = unweighted
+    # wall term (loss.py): weight of the penalty on predicted centres closer than
+    # wall_margin particle radii in front of the nearest wall particle (0 = off)
+    wall_weight: float = 0.0
+    wall_margin: float = 1.5
 
     def validate(self):
         check(self.unroll >= 1, "loss.unroll", ">= 1", self.unroll)
@@ -121,6 +125,9 @@ class LossConfig:
               "non-negative with a positive sum", list(self.step_weights))
         check(0 < self.gamma <= 2, "loss.gamma", "in (0, 2]", self.gamma)
         check(self.neighbor_scale >= 0, "loss.neighbor_scale", ">= 0", self.neighbor_scale)
+        check(self.wall_weight >= 0, "loss.wall_weight", ">= 0", self.wall_weight)
+        check(0 <= self.wall_margin <= 4.5, "loss.wall_margin", "in [0, 4.5] particle radii",
+              self.wall_margin)
 
     def weights(self) -> list[float]:
         w = list(self.step_weights) or [1.0] * self.unroll

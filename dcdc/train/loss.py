@@ -22,6 +22,19 @@ published code trains with U = 2 and step weights ½, ½)::
   which is what makes long rollouts stable; gradients reach step 1 through x̂¹ and v̂¹.
 * The mean runs over each scene's particles, then over the scenes of the batch (each
   scene counts once, as in the reference code), so large scenes do not outweigh small ones.
+
+The wall term (``loss.wall_weight`` λ > 0) adds to each step's loss::
+
+    Lᵏ_wall = λ · mean_i ((max(0, m r − sᵢ))² + ε)^(γ/2) − ε^(γ/2),   sᵢ = (x̂ᵢᵏ − x_b)·n_b
+
+with b the wall particle nearest to particle i among its wall neighbours at x* (the wall
+conv's own search), n_b its normal (into the fluid) and m = ``loss.wall_margin`` particle
+radii. Wall particles sit r behind the solid's surface, so m = 1.5 asks every centre to stay
+at least r/2 off the surface of the nearest wall, which is the complement of
+:func:`dcdc.metrics.inside_walls`' first criterion (closer than r/2 to a wall particle).
+The ground truth keeps this margin almost everywhere; the position term alone does not
+teach a network that a small error towards a wall is worse than one along it, and a
+network rolled out alone drifts through walls by such errors.
 """
 from __future__ import annotations
 
@@ -58,6 +71,44 @@ def scene_mean(values: torch.Tensor, batch: Batch) -> torch.Tensor:
     return (sums[has] / counts[has]).mean() if bool(has.any()) else values.sum() * 0
 
 
+def nearest_wall(geometry, wall_x, like: torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
+    """For each receiver of a wall→fluid conv ``geometry``: (particles with a wall neighbour
+    [M], the nearest of their wall neighbours [M]), distances taken at the receivers'
+    positions ``like`` [N, d] (detached)."""
+    rec = geometry.receivers()
+    snd = geometry.sender.astype(np.int64)
+    if len(rec) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    xr = like.detach().cpu().numpy()[rec]
+    ws = torch.as_tensor(wall_x).detach().cpu().numpy().astype(np.float64)[snd]
+    d2 = ((xr - ws) ** 2).sum(axis=1)
+    order = np.lexsort((d2, rec))  # by receiver, nearest first
+    first = np.ones(len(order), bool)
+    first[1:] = rec[order][1:] != rec[order][:-1]
+    pick = order[first]
+    return rec[pick].astype(np.int64), snd[pick]
+
+
+def wall_penalty(x: torch.Tensor, batch: Batch, geometry, radius: float, margin: float,
+                 gamma: float) -> torch.Tensor:
+    """Per particle [N]: ((max(0, m r − s))² + ε)^(γ/2) − ε^(γ/2) with s the distance of the
+    centre in front of its nearest wall particle along that particle's normal (module doc);
+    0 for particles without a wall neighbour."""
+    out = torch.zeros(len(x), dtype=x.dtype, device=x.device)
+    if batch.wall_position is None or len(batch.wall_position) == 0:
+        return out
+    i, b = nearest_wall(geometry, batch.wall_position, x)
+    if len(i) == 0:
+        return out
+    b = torch.as_tensor(b, device=x.device)
+    wx = batch.wall_position[b].to(x.dtype)
+    wn = batch.wall_normal[b].to(x.dtype)
+    s = ((x[i] - wx) * wn).sum(dim=1)
+    depth = torch.relu(margin * radius - s)
+    pen = (depth ** 2 + EPS) ** (0.5 * gamma) - EPS ** (0.5 * gamma)
+    return out.index_add(0, torch.as_tensor(i, device=x.device), pen)
+
+
 def unrolled_loss(model, batch: Batch, cfg: LossConfig) -> tuple[torch.Tensor, list[float]]:
     """(L, [L¹, …, L^U]) of ``batch`` for ``model`` (a network or its DDP wrapper)."""
     net = getattr(model, "module", model)
@@ -69,6 +120,10 @@ def unrolled_loss(model, batch: Batch, cfg: LossConfig) -> tuple[torch.Tensor, l
         counts = np.diff(net.last_context.fluid.row_splits)
         err = neighbour_weights(counts, cfg.neighbor_scale, x) * \
             position_error(x, batch.position[k + 1], cfg.gamma)
+        if cfg.wall_weight > 0:
+            err = err + cfg.wall_weight * wall_penalty(
+                x, batch, net.last_context.wall, net.cfg.particle_radius, cfg.wall_margin,
+                cfg.gamma)
         lk = scene_mean(err, batch)
         parts.append(float(lk.detach()))
         total = w * lk if total is None else total + w * lk
