@@ -11,8 +11,10 @@ name, ``--model none`` for SPH alone) runs the same scene from the same start: i
 trajectory, a strip of SPH above the model and an SPH | model animation (same camera, the
 nearest-particle error per panel) and its numbers (steps before the guard stopped it, ms per
 step, per-phase centre-of-mass heights against SPH, layer purity, particles in walls, mean
-nearest-particle error, final order; definitions in docs/evaluation.md) are added, and a
-wrong final order of the model fails the demo too. The default model is skipped with a note
+nearest-particle error, per-phase neighbour purity and height distance against SPH;
+definitions in docs/evaluation.md) are added, with a verdict: the model's final order
+heavy-below and layers like SPH's (:func:`verdict`); a model that fails it fails the demo.
+``--no-contact`` runs the network alone, without the SPH solver's wall contact. The default model is skipped with a note
 where the scene's particle radius or frame Δt is not the one it was trained for.
 ``--settle T`` starts the network from the SPH state at T s instead of the lattice start
 (the 3-D networks burst from a deep lattice column, docs/models.md). The output folder is
@@ -25,6 +27,7 @@ import click
 import numpy as np
 
 from .errors import DcdcError, SimulationDiverged
+from .evaluate import CONTACT_DEFAULT
 from .particles import active_mask
 
 
@@ -78,15 +81,18 @@ def order_ok(traj, frame: int = -1) -> bool:
               help="learned model run beside SPH: a checkpoint, a shipped name (dcdc2d, "
                    "cconv3d, ...), 'auto' (the shipped dcdc model of --dim, skipped where the "
                    "scene's particle radius or frame dt is not its own) or 'none'")
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
+              help="with --model: the SPH solver's wall contact after each network step (a "
+                   "safety net; its moves are reported) or the network alone")
 @click.option("--settle", type=float, default=None,
               help="with --model: hand the network the SPH state at SECONDS (e.g. 0.2) instead "
                    "of the lattice start; its file repeats the SPH frames before that")
 def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_particles, model_path,
-                 settle):
+                 contact, settle):
     """Simulate a built-in multiphase scene with SPH and a shipped learned model, write both.
 
     Exits with status 2 when the phases do not end in density order (heavy below), in the
-    SPH run or in the learned model's."""
+    SPH run or in the learned model's, or when the model's layers are not like SPH's."""
     from tqdm import tqdm
 
     from .data import interrupt
@@ -144,7 +150,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
                      {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
         rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
         ok = order_ok(traj)
-        neural, neural_ok = None, True
+        neural, neural_fail = None, None
         if net is not None:
             try:
                 check_compatible(net, radius=traj.radius, frame_dt=sc.frame_dt,
@@ -154,8 +160,8 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
                     raise
                 neural, net = f"no learned model: {e} (--model M runs another)", None
         if net is not None:
-            neural, neural_ok = _neural_beside(net, model_path, sc, traj, n_frames, tmp, names,
-                                               start)
+            neural, neural_fail = _neural_beside(net, model_path, sc, traj, n_frames, tmp,
+                                                 names, start, contact)
     click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
     click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
@@ -170,20 +176,21 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         heights = ", ".join(f"{n} {y:.3f} m" for n, _, y in rows1)
         raise DcdcError(f"final phase order check failed: median heights (lightest first) {heights} "
                         "are not in density order, heavy below")
-    if not neural_ok:
-        raise DcdcError(f"final phase order check failed for the learned model {model_path}: "
-                        "its phases do not end in density order, heavy below (SPH's do)")
+    if neural_fail is not None:
+        raise DcdcError(f"the learned model {model_path} fails the demo's verdict against "
+                        f"SPH: {neural_fail}")
 
 
 def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
-                   start: int = 0) -> tuple[str, bool]:
+                   start: int = 0, contact: bool = CONTACT_DEFAULT) -> tuple[str, str | None]:
     """Run ``net`` on the demo scene from the SPH run's frame ``start`` (0: the lattice
     start; later: the settled state, docs/models.md "The cocktail's start-up burst"); write
     its trajectory (the SPH frames before ``start`` first, so both files share frame times),
     a strip of SPH above the model and an SPH | model animation into ``tmp`` (names
-    appended); returns (the report, whether the model's final order is right). The
-    nearest-particle error is averaged over the network's frames only; the final state is
-    compared with SPH's at the same time by :func:`dcdc.evaluate.scores.compare_states`."""
+    appended); returns (the report, None when the verdict passes or else why it fails).
+    The nearest-particle error is averaged over the network's frames only; the final state
+    is compared with SPH's at the same time by :func:`dcdc.evaluate.scores.compare_states`.
+    The verdict (:func:`verdict`) asks the right order and layers like SPH's."""
     import imageio.v3 as iio
     from tqdm import tqdm
 
@@ -195,7 +202,7 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     from .render.figures import Figure, strip_frames
     from .render.frames import default_camera
 
-    sim = NeuralSimulator(net, traj.system(start), time=float(traj.time[start]))
+    sim = NeuralSimulator(net, traj.system(start), time=float(traj.time[start]), contact=contact)
     since = f" from the SPH state at {traj.time[start]:g} s" if start else ""
     click.echo(f"simulating {traj.name} with the learned model {model_path} ({net.name}){since}")
     with tqdm(total=n_frames - start, unit="step") as bar:
@@ -222,21 +229,44 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     mine, sph, com_rel = compare_states(pred.position[n - 1], traj.position[n - 1], traj,
                                         _active(traj, n - 1))
     stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
-    ok = bool(mine["order_ok"])  # metrics.density_order_ok of medians, as order_ok(pred)
+    moved = int(ro.contacts.sum()) if ro.contacts is not None else 0
+    support = (f"wall contact on: {moved} particle moves back out of walls"
+               if contact else "the network alone (no wall contact)")
     lines = [f"learned model {model_path}{since}: {ro.steps} of {n_frames - start} steps "
-             f"({stop}), {ro.ms_per_step:.1f} ms per step",
-             f"{'phase':<12}{'COM height SPH':>16}{'learned':>10}{'rel. err':>10}"]
+             f"({stop}), {ro.ms_per_step:.1f} ms per step, {support}",
+             f"{'phase':<12}{'COM height':>12}{'':>9}{'':>9}{'purity':>8}{'':>9}{'height W1':>11}",
+             f"{'':<12}{'SPH':>12}{'learned':>9}{'rel. err':>9}{'SPH':>8}{'learned':>9}"
+             f"{'/ column':>11}"]
     for k, p in enumerate(traj.phases):
         if np.isfinite(com_rel[k]):
-            lines.append(f"{p.name:<12}{sph['com_height'][k]:>16.3f}"
-                         f"{mine['com_height'][k]:>10.3f}{com_rel[k]:>10.3f}")
+            lines.append(f"{p.name:<12}{sph['com_height'][k]:>12.3f}"
+                         f"{mine['com_height'][k]:>9.3f}{com_rel[k]:>9.3f}"
+                         f"{sph['purity_per_phase'][k]:>8.2f}{mine['purity_per_phase'][k]:>9.2f}"
+                         f"{mine['height_w1_rel'][k]:>11.3f}")
     worst = float(np.nanmax(com_rel)) if np.isfinite(com_rel).any() else float("nan")
-    lines.append(f"largest COM height error {worst:.3f}, layer purity {mine['purity']:.2f} "
-                 f"(SPH {sph['purity']:.2f}), particles in walls (largest per step) "
-                 f"{int(ro.in_walls.max()) if len(ro.in_walls) else 0}, mean nearest-particle "
-                 f"error {1e3 * float(np.mean(err)):.1f} mm, final order heavy-below: "
-                 f"{'yes' if ok else 'NO'}")
-    return "\n".join(lines), ok
+    lines.append(f"largest COM height error {worst:.3f}, particles in walls (largest per "
+                 f"step) {int(ro.in_walls.max()) if len(ro.in_walls) else 0}, mean "
+                 f"nearest-particle error {1e3 * float(np.mean(err)):.1f} mm")
+    why = verdict(mine, traj.phases)
+    lines.append(f"verdict: {'layers like SPH, final order heavy-below' if why is None else why}")
+    return "\n".join(lines), why
+
+
+def verdict(state: dict, phases) -> str | None:
+    """None when a learned model's final state passes, else the reason: the final order
+    heavy-below (median heights) and layers like SPH's
+    (:func:`dcdc.metrics.layers_like`: every phase's neighbour purity ≥ 0.9 × SPH's and its
+    height distribution within 5 % of the column of SPH's; docs/evaluation.md, "Layers")."""
+    if not state["order_ok"]:
+        return "final order heavy-below: NO"
+    if state["layers_ok"]:
+        return None
+    ratio, rel = np.asarray(state["purity_ratio"]), np.asarray(state["height_w1_rel"])
+    mixed = [p.name for k, p in enumerate(phases) if np.isfinite(ratio[k]) and ratio[k] < 0.9]
+    off = [p.name for k, p in enumerate(phases) if np.isfinite(rel[k]) and rel[k] > 0.05]
+    parts = ([f"more mixed than SPH (purity < 0.9 x SPH's) in {', '.join(mixed)}"] if mixed else []) \
+        + ([f"heights off SPH's by > 5 % of the column in {', '.join(off)}"] if off else [])
+    return "layers unlike SPH's: " + "; ".join(parts or ["no phase to compare"])
 
 
 def prefixed(ro, traj, start: int):

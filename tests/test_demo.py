@@ -79,9 +79,13 @@ def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
     rows = [ln.split() for ln in stdout.splitlines() if ln.split()[:1] in (["light"], ["heavy"])]
     assert len(rows) == 4  # the SPH table's two rows and the model's two
     heights = {r[0]: [float(v) for v in r[1:]] for r in rows[2:]}
-    for sph, mine, rel in heights.values():  # printed to 3 decimals: within their rounding
+    for sph, mine, rel, *_ in heights.values():  # printed to 3 decimals: within their rounding
         assert abs(rel - abs(mine - sph) / sph) <= 0.001 / sph + 0.0005 + 1e-9
     assert "largest COM height error" in stdout and "final order heavy-below: yes" in stdout
+    assert "verdict: layers like SPH, final order heavy-below" in stdout
+    assert "wall contact on:" in stdout
+    for _, _, _, p_sph, p_mine, w1 in heights.values():  # purity in [0, 1], W1 a fraction
+        assert 0 <= p_sph <= 1 and 0 <= p_mine <= 1 and 0 <= w1 < 0.05
     assert (out / "lock_exchange_2d_dcdc.h5").is_file()
     assert (out / "lock_exchange_2d_dcdc_compare.png").stat().st_size > 10_000
     import imageio.v3 as iio
@@ -156,6 +160,23 @@ def test_demo_model_none_and_a_scene_the_shipped_model_does_not_fit(tmp_path, ca
     assert not (tmp_path / "strict").exists()
 
 
+def test_demo_verdict_names_what_fails():
+    """The verdict: the order first, then which phases are more mixed or off in height."""
+    from dcdc.demo import verdict
+
+    class P:
+        def __init__(self, name):
+            self.name = name
+    phases = [P("oil"), P("water")]
+    good = {"order_ok": True, "layers_ok": True, "purity_ratio": [1.0, 0.95],
+            "height_w1_rel": [0.01, 0.02]}
+    assert verdict(good, phases) is None
+    assert verdict({**good, "order_ok": False}, phases) == "final order heavy-below: NO"
+    why = verdict({**good, "layers_ok": False, "purity_ratio": [0.7, 0.95],
+                   "height_w1_rel": [0.01, 0.08]}, phases)
+    assert "more mixed than SPH" in why and "in oil" in why and "in water" in why
+
+
 def test_demo_fails_when_the_learned_model_ends_in_the_wrong_order(tmp_path, capsys,
                                                                    monkeypatch):
     """SPH's order right but the model's wrong: exit 2 with a one-line reason naming the
@@ -164,9 +185,11 @@ def test_demo_fails_when_the_learned_model_ends_in_the_wrong_order(tmp_path, cap
 
     import dcdc.demo as demo
 
-    monkeypatch.setattr(demo, "_neural_beside", lambda *a, **k: ("learned model: stub", False))
+    monkeypatch.setattr(demo, "_neural_beside",
+                        lambda *a, **k: ("learned model: stub", "final order heavy-below: NO"))
     code, _, err = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
                                 "--out", tmp_path / "d"], capsys)
-    assert code == 2 and "for the learned model dcdc2d" in err
+    assert code == 2 and "the learned model dcdc2d fails the demo's verdict" in err
+    assert "final order heavy-below: NO" in err
     assert [ln for ln in err.splitlines() if ln.startswith("error:")] == [err.splitlines()[-1]]
     assert (tmp_path / "d" / "lock_exchange_2d.h5").is_file()

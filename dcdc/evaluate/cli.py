@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from ..errors import DcdcError
+from . import CONTACT_DEFAULT
 from .start import settle_frames, settle_with_sph, start_from_dataset, start_from_scene
 
 
@@ -31,7 +32,7 @@ from .start import settle_frames, settle_with_sph, start_from_dataset, start_fro
               help="guard: a faster particle stops the rollout [m/s]")
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True,
               help="guard: the largest fraction of particles allowed inside walls")
-@click.option("--contact/--no-contact", default=True, show_default=True,
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
               help="move particles that reach a wall's solid back to its surface after each "
                    "step (the SPH solver's wall contact); --no-contact: the network alone")
 @click.option("--device", default="cpu", show_default=True)
@@ -223,7 +224,7 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
               help="n+1 / n+2 errors from every STRIDE-th ground-truth frame")
 @click.option("--max-speed", type=float, default=50.0, show_default=True, help="guard [m/s]")
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True, help="guard")
-@click.option("--contact/--no-contact", default=True, show_default=True,
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
               help="the walls' contact in the rollouts (dcdc simulate --help)")
 @click.option("--members", type=int, default=1, show_default=True,
               help="rollouts per model and trajectory: member 0 from the stored start, the "

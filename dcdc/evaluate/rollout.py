@@ -39,6 +39,7 @@ import torch
 from ..errors import DcdcError, SimulationDiverged
 from ..metrics import inside_walls
 from ..particles import ParticleSystem
+from . import CONTACT_DEFAULT
 
 
 @dataclass
@@ -101,7 +102,7 @@ class NeuralSimulator:
 
     def __init__(self, model, system: ParticleSystem, dt: float | None = None,
                  guard: Guard | None = None, time: float = 0.0, density=None,
-                 device: str | torch.device = "cpu", contact: bool = True):
+                 device: str | torch.device = "cpu", contact: bool = CONTACT_DEFAULT):
         from ..model.checkpoint import check_compatible
 
         if not isinstance(system, ParticleSystem):

@@ -13,6 +13,7 @@ import torch
 
 from .. import metrics as M
 from ..errors import DcdcError
+from . import CONTACT_DEFAULT
 from .rollout import Guard, NeuralSimulator, run
 
 MM = 1e3  # metres -> millimetres
@@ -187,7 +188,7 @@ def perturbed_start(traj, frame: int, perturb: float, seed: int):
 
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                      guard: Guard | None = None, ot_points: int = 2000,
-                     contact: bool = True, start_frame: int = 0, perturb: float = 0.0,
+                     contact: bool = CONTACT_DEFAULT, start_frame: int = 0, perturb: float = 0.0,
                      seed: int = 0, one_two_step: bool = True) -> dict:
     """All scores of ``model`` on ground-truth trajectory ``traj`` (a
     :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors (the network alone, over the
