@@ -410,3 +410,78 @@ def test_usage_errors_are_one_line(capsys, argv, words):
 def test_a_group_without_its_command_shows_its_help(capsys):
     code, out, err = dcdc(capsys, "scene")
     assert out.startswith("Usage: dcdc scene") and "random" in out and err == ""
+
+
+def test_fluid_far_outside_the_domain_is_called_that(tmp_path, capsys):
+    f = scene(tmp_path)
+    f.write_text(f.read_text().replace("min = [0.1, 0.1]\nmax = [0.5, 0.5]",
+                                       "min = [5.1, 5.1]\nmax = [5.5, 5.5]"))
+    code, _, err = dcdc(capsys, "scene", "show", f)
+    assert_one_line_error(code, err, "fluid[0]", "outside the domain")
+
+
+EMITTER_AFTER_THE_END = """
+[[emitter]]
+phase = "water"
+position = [0.7, 0.8]
+direction = [0.0, -1.0]
+speed = 1.0
+rate = 100.0
+start = 0.4
+stop = 0.6
+"""
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda text: text.replace("duration = 0.1", "duration = 0.01"), ["shorter than one frame"]),
+    (lambda text: text + EMITTER_AFTER_THE_END, ["emitter[0] starts at 0.4 s"]),
+])
+def test_scene_show_refuses_what_generate_refuses(tmp_path, capsys, edit, words):
+    f = scene(tmp_path)
+    f.write_text(edit(f.read_text()))
+    for argv in (["scene", "show", f],
+                 ["generate", f, "--simulator", "ballistic", "-o", tmp_path / "ds"]):
+        code, _, err = dcdc(capsys, *argv)
+        assert_one_line_error(code, err, *words)
+
+
+def test_file_held_by_a_writer_is_not_called_corrupt(tmp_path, capsys):
+    p = tmp_path / "held.h5"
+    shutil.copy(TRAJ, p)
+    holder = subprocess.Popen([sys.executable, "-c",
+                               f"import h5py, time; f = h5py.File({str(p)!r}, 'r+'); "
+                               "print('open', flush=True); time.sleep(60)"],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "open"
+        code, _, err = dcdc(capsys, "dataset", "info", p)
+    finally:
+        holder.kill()
+        holder.wait()
+    if "unable to lock" in err or code == 0:
+        pytest.skip("HDF5 file locking is off here")
+    assert_one_line_error(code, err, "another process has it open for writing")
+    assert "corrupt" not in err
+
+
+def test_file_without_trajectory_groups(tmp_path, capsys):
+    import h5py
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        for i in range(9):
+            f.create_dataset(f"d{i}", data=np.zeros(3))
+    code, _, err = dcdc(capsys, "dataset", "info", tmp_path / "x.h5")
+    assert_one_line_error(code, err, "not a dcdc dataset", "d0, d1, d2, …",
+                          "not trajectory groups")
+
+
+def test_mesh_with_huge_coordinates_is_named_so(tmp_path, capsys):
+    from dcdc.errors import DcdcError
+    from dcdc.geometry.mesh import load_mesh
+    lines = []
+    for ln in (ROOT / "tests/data/models/UnitBox.obj").read_text().splitlines():
+        if ln.startswith("v "):
+            ln = "v " + " ".join(repr(float(t) * 1e30) for t in ln.split()[1:4])
+        lines.append(ln)
+    (tmp_path / "big.obj").write_text("\n".join(lines) + "\n")
+    with pytest.raises(DcdcError, match="coordinates reach 5e\\+29, beyond the 1e\\+09"):
+        load_mesh(tmp_path / "big.obj")

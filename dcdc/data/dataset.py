@@ -69,6 +69,9 @@ def _open(path, mode="r"):
     except FileNotFoundError:
         raise DcdcError(f"{path}: no such file") from None
     except OSError as e:
+        if "unable to lock file" in str(e):  # HDF5's file lock: another process writes it
+            raise DcdcError(f"{path}: another process has it open for writing (HDF5 file "
+                            f"lock); try again when it is done") from None
         raise DcdcError(f"{path}: not a readable HDF5 file (truncated or corrupt?): "
                         f"{_first_line(e)}") from None
 
@@ -378,6 +381,11 @@ def _scan(path: Path) -> tuple[list[_Ref], list[str]]:
         # a final-named file of format >= 2 is renamed into place only when complete, so a
         # group without the mark there is damage, not an unfinished run
         atomic = int(f.attrs.get("format_version", 1)) >= 2
+        other = [k for k in keys if not isinstance(f[k], _h5().Group)]
+        if other:
+            raise DcdcError(f"{p}: not a dcdc dataset: {', '.join(other[:3])}"
+                            f"{', …' if len(other) > 3 else ''} at its top level "
+                            f"{'is' if len(other) == 1 else 'are'} not trajectory groups")
         for k in keys:
             if int(f[k].attrs.get("complete", 0)) == 1:
                 refs.append(_Ref(p, k))

@@ -130,9 +130,7 @@ def scene_jobs(scenes, dim: int | None = None, resolution: float = 1.0,
         d = dim or sc.dim
         if d > sc.dim:
             raise DcdcError(f"scene {sc.name} is {sc.dim}-D; it has no {d}-D variant")
-        run = duration if duration is not None else sc.duration
-        check_duration(run, sc.frame_dt, "--duration" if duration is not None else f"{sc.name}: duration")
-        check_emitters(sc, run, sc.name, override=duration is not None)
+        run = check_run(sc, duration, sc.name)
         check_budget(sc.variant(d, resolution), sc.name, int(round(run / sc.frame_dt)) + 1, max_particles)
         text = builtin_text(s) if str(s) in builtin_names() else Path(s).read_text()
         name = f"{sc.name}_{d}d" + (f"_res{resolution:g}" if resolution != 1 else "")
@@ -185,6 +183,20 @@ def set_threads(threads: int) -> None:
     except Exception:  # pragma: no cover - numba always present in this project
         pass
 
+def check_run(scene, duration: float | None = None, source: str | None = None,
+              warn: bool = True) -> float:
+    """What a run of ``scene`` must pass before it starts (``dcdc generate`` and ``dcdc
+    scene show`` alike): it covers at least one frame, and no emitter starts after its end
+    (a warning, with ``warn``, when ``duration`` — ``--duration`` — overrides the scene's).
+    Returns the run's duration."""
+    run = duration if duration is not None else scene.duration
+    src = source or scene.source
+    check_duration(run, scene.frame_dt, "--duration" if duration is not None else f"{src}: duration")
+    if duration is None or warn:
+        check_emitters(scene, run, src, override=duration is not None)
+    return run
+
+
 
 def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
             code_version=("", "")) -> dict:
@@ -199,11 +211,8 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
     try:
         src_path = None if job.source.startswith(("builtin:", "random:")) else Path(job.source)
         scene = parse(job.text(), src_path.name if src_path else job.source, src_path)
-        duration = job.duration if job.duration is not None else scene.duration
+        duration = check_run(scene, job.duration, job.name, warn=False)
         fdt = scene.frame_dt
-        check_duration(duration, fdt, "duration" if job.duration is None else "--duration")
-        if job.duration is None:
-            check_emitters(scene, duration, job.name)
         n_frames = int(round(duration / fdt))
         T = n_frames + 1
         system = scene.realize(dim=job.dim, resolution=job.resolution, frames=T,

@@ -31,6 +31,9 @@ MASK_CELLS = 4_000_000  # cap on the near-surface voxel mask
 
 
 # ------------------------------------------------------------------ loading
+MAX_COORDINATE = 1e9  # |x| of a vertex in the file (trimesh merges on a 1e-8 grid: int64)
+
+
 def load_mesh(path, scale=1.0, translate=None):
     """A triangle mesh (OBJ/STL/PLY... via trimesh), scaled then translated.
 
@@ -60,6 +63,11 @@ def load_mesh(path, scale=1.0, translate=None):
     if len(bad):
         raise DcdcError(f"mesh {path}: {len(bad)} vertex(es) with a coordinate that is not a "
                         f"finite number (first: {np.asarray(mesh.vertices)[bad[0]].tolist()})")
+    size = float(np.abs(np.asarray(mesh.vertices)).max())
+    if size > MAX_COORDINATE:  # merging vertices rounds them to integers of 1e-8
+        raise DcdcError(f"mesh {path}: coordinates reach {size:.3g}, beyond the "
+                        f"{MAX_COORDINATE:.0e} it can be read with; store it in smaller units "
+                        f"and place it with scale")
     mesh.process()
     mesh = mesh.copy()
     mesh.merge_vertices(merge_tex=True, merge_norm=True)

@@ -984,10 +984,6 @@ class Scene:
                         which = min(solids, key=lambda w: float(w.sdf(pts[j:j + 1])[0])).name
                         raise DcdcError(f"{src}: {label} has {int(bad.sum())} particle(s) inside or "
                                         f"touching walls.{which}, e.g. at {pts[j].round(3).tolist()}{at}")
-                out = ~((pts >= lo) & (pts <= hi)).all(1)
-                if out.any():
-                    raise DcdcError(f"{src}: {label} has {int(out.sum())} particle(s) outside the "
-                                    f"domain{at}")
                 for k, (lab2, prev) in enumerate(blocks):
                     nb = radius_search(pts, 0.75 * spacing, prev)
                     hit = nb.counts > 0
@@ -1016,6 +1012,12 @@ class Scene:
             if check and not ((x >= lo) & (x <= hi)).all():
                 raise DcdcError(f"{src}: emitter[{i}] {what} lies outside the domain")
             xs.append(x)
+                # the domain first: beyond it a hollow wall's solid reaches to infinity, and
+                # "inside the wall" would hide that the fluid is outside the domain
+                out = ~((pts >= lo) & (pts <= hi)).all(1)
+                if out.any():
+                    raise DcdcError(f"{src}: {label} has {int(out.sum())} particle(s) outside the "
+                                    f"domain{at}")
             vs.append(v)
             ph.append(np.full(len(x), names.index(e["phase"])))
             births.append(b)
