@@ -213,7 +213,8 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     settled = {"settled_by_sph_s": float(traj.time[start])} if start else {}
     write_rollout(tmp / f"{name}.h5", name, ro, sim.system,
                   {"scene": sc.name, "frame_dt": sim.dt, "split": "rollout",
-                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path), **settled})
+                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path), **settled},
+                  steps_requested=n_frames - start)
     pred = Dataset(tmp / f"{name}.h5")[name]
     n = pred.n_frames
     err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)

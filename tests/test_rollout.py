@@ -253,6 +253,25 @@ def test_simulate_scene_guard_stop_is_written_and_reported(ckpts, tmp_path, caps
         g = f[next(iter(f))]
         stats = json.loads(g.attrs["solver_stats"])
         assert stats["stop_cause"] == "walls" and stats["stop_step"] == g["position"].shape[0]
+        # the file says it is partial: its status, the steps asked and done, the reason
+        assert g.attrs["rollout_status"] == "stopped" and int(g.attrs["steps_requested"]) == 200
+        assert int(g.attrs["steps"]) == g["position"].shape[0] - 1
+        assert str(g.attrs["stopped"]) in report
+    s = Dataset(out).summary()
+    assert s["stopped_rollouts"] == [next(iter(h5py.File(out)))]
+    code, stdout, _ = _cli(["dataset", "info", str(out)], capsys)
+    assert code == 0 and "PARTIAL rollouts stopped by the guard" in stdout
+
+
+def test_simulate_stopped_before_its_first_step_writes_nothing(ckpts, tmp_path, capsys):
+    """A rollout the guard stops at step 1 (here: every particle faster than the bound from
+    the start) leaves no file behind, only the one-line reason."""
+    out = tmp_path / "none.h5"
+    code, _, err = _cli(["simulate", "--model", str(ckpts / "zero.pt"), "--scene", "dam_break",
+                         "--dim", "2", "--steps", "5", "--max-speed", "1e-9", "--out", str(out)],
+                        capsys)
+    assert code == 2 and err.strip().split("\n")[-1].startswith("error: neural rollout stopped at step 1")
+    assert not out.exists() and not list(tmp_path.iterdir())
 
 
 def test_simulate_settle_starts_from_the_scenes_sph_state(ckpts, tmp_path, capsys):

@@ -33,7 +33,9 @@ def info_command(path, as_json, list_trajs, verify):
         return
     click.echo(f"dataset     {s['path']}")
     click.echo(f"trajectories {s['trajectories']} finished" +
-               (f", {s['incomplete']} unfinished (ignored)" if s["incomplete"] else ""))
+               (f", {s['incomplete']} unfinished (ignored)" if s["incomplete"] else "") +
+               (f"; {len(s['stopped_rollouts'])} of them PARTIAL rollouts stopped by the "
+                f"guard ({', '.join(s['stopped_rollouts'])})" if s["stopped_rollouts"] else ""))
     if s["trajectories"]:
         click.echo(f"dims        {s['dims']}   splits {s['splits']}")
         click.echo(f"frames      {s['frames']} in all, dt = {s['frame_dt']} s, radius = {s['radius']} m")

@@ -482,6 +482,8 @@ class Dataset:
                               float(max((t.density.max() for t in trajs if t.n_particles), default=0))],
             "wall_time_s": float(sum(float(t.attrs.get("wall_time_s", 0) or 0) for t in trajs)),
             "removed": int(sum(t.removed for t in trajs)),
+            "stopped_rollouts": sorted(t.name for t in trajs
+                                       if str(t.attrs.get("rollout_status", "")) == "stopped"),
             "bytes": int(sum(p.stat().st_size for p in {r.file for r in self._refs})),
         }
 

@@ -107,11 +107,12 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
             "dcdc_version": version, "git_commit": commit,
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "wall_time_s": time.time() - t0}
-    write_rollout(out, name, ro, sim.system, meta)
+    write_rollout(out, name, ro, sim.system, meta, steps_requested=n)
     walls = int(ro.in_walls.max()) if len(ro.in_walls) else 0
-    moved = f", {int(ro.contacts.sum())} wall contact(s)" if contact else ""
-    click.echo(f"wrote {out}: {ro.steps} of {n} steps, {ro.ms_per_step:.1f} ms per step, "
-               f"at most {walls} particle(s) inside walls{moved}")
+    moved = f", {int(ro.contacts.sum())} wall contact(s)" if contact else ", no wall contact"
+    partial = " (PARTIAL: stopped by the guard, recorded in the file)" if ro.stopped else ""
+    click.echo(f"wrote {out}: {ro.steps} of {n} steps{partial}, {ro.ms_per_step:.1f} ms per "
+               f"step, at most {walls} particle(s) inside walls{moved}")
     if ro.stopped is not None:
         raise ro.stopped
 

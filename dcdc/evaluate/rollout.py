@@ -373,21 +373,31 @@ def run(sim: NeuralSimulator, n_steps: int, progress=None, interrupt_check=None)
                    float(np.median(ms)) if ms else float("nan"), contacts)
 
 
-def write_rollout(path, name: str, ro: Rollout, system: ParticleSystem, attrs: dict):
+def write_rollout(path, name: str, ro: Rollout, system: ParticleSystem, attrs: dict,
+                  steps_requested: int | None = None):
     """Write a rollout in the dataset layout (docs/datasets.md) with
     :func:`dcdc.data.dataset.write_trajectory` (atomic), so :class:`~dcdc.data.dataset.Dataset`,
     ``dcdc render`` and ``dcdc export`` read it. The guard's verdict and the wall
-    penetrations per step go into ``solver_stats``."""
+    penetrations per step go into ``solver_stats``; the attributes ``rollout_status``
+    ("finished" or "stopped"), ``steps``, ``steps_requested`` and ``stopped`` (the guard's
+    one-line reason, "" when finished) say whether the file holds the whole run asked for:
+    a stopped rollout is a partial result and says so (``dcdc dataset info`` shows it).
+    A rollout stopped before its first step is not written (:class:`RolloutStopped`)."""
     import json
 
     from ..data.dataset import write_trajectory
 
     st = ro.stopped
+    if ro.steps == 0 and st is not None:
+        raise st
+    asked = ro.steps if steps_requested is None else int(steps_requested)
     stats = {"steps": ro.steps, "sph_frames": ro.sph_frames, "ms_per_step": ro.ms_per_step,
              "in_walls": ro.in_walls.tolist(),
              "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
              "contacts": [] if ro.contacts is None else ro.contacts.tolist(),
              "stopped": str(st) if st else "", "stop_cause": st.cause if st else "",
              "stop_step": st.step if st else -1, "stop_particle": st.particle if st else -1}
-    meta = {**attrs, "solver_stats": json.dumps(stats), "duration": float(ro.time[-1] - ro.time[0])}
+    meta = {**attrs, "solver_stats": json.dumps(stats), "duration": float(ro.time[-1] - ro.time[0]),
+            "rollout_status": "stopped" if st else "finished", "steps": ro.steps,
+            "steps_requested": asked, "stopped": str(st) if st else ""}
     return write_trajectory(path, name, ro.position, ro.velocity, ro.time, system, meta)
