@@ -2,7 +2,8 @@
 
 Design (resumable, shardable, never half-written):
 - The job list is deterministic: the scenes in the order given (each in the requested
-  dimension), or ``--random N --seed S`` = random scenes with seeds S, S+1, ..., S+N-1.
+  dimension), or ``--random N --seed S`` = random scenes with seeds S, S+1, ..., S+N-1
+  (with ``--family NAME|all``: scenes of the scene families, dcdc.scene.families).
 - ``--shard i/n`` keeps jobs j with j mod n == i, so n machines (or batch-array tasks)
   split the work without talking to each other; merge the outputs with
   ``dcdc dataset merge``.
@@ -38,7 +39,7 @@ from ..scene.format import SEED_MAX
 from . import interrupt
 from .dataset import is_complete, removed_count
 from .jobs import (Job, _check_same_job, _write_json, check_duration, code_version, parse_shard,
-                   random_jobs, run_job, scene_jobs)
+                   family_jobs, random_jobs, run_job, scene_jobs)
 
 
 # ------------------------------------------------------------------ the run
@@ -142,6 +143,10 @@ def _write_index(out_dir: Path, summary: dict) -> None:
 @click.option("-o", "--out", "out", type=click.Path(file_okay=False), required=True,
               help="Dataset directory (one NAME.h5 per trajectory).")
 @click.option("--random", "n_random", type=int, default=0, help="Generate N random scenes instead.")
+@click.option("--family", default=None, metavar="NAME|all",
+              help="With --random N: scenes of a scene family (dcdc.scene.families; all = the "
+                   "families in turn); seeds >= 900000 are the suite's (--split test only); "
+                   "--max-ratio, --min-ratio, --density-range do not apply.")
 @click.option("--seed", type=click.IntRange(0, SEED_MAX), default=0, show_default=True,
               help="First random-scene seed.")
 @click.option("--dim", type=click.IntRange(2, 3), default=None,
@@ -163,7 +168,7 @@ def _write_index(out_dir: Path, summary: dict) -> None:
 @click.option("--max-particles", type=float, default=None,
               help="Particle budget per scene (default 1e7 or $DCDC_MAX_PARTICLES).")
 @click.option("--no-progress", is_flag=True)
-def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, min_ratio,
+def generate_command(scenes, out, n_random, family, seed, dim, resolution, max_ratio, min_ratio,
                      density_range, duration, split, workers, shard, sph_set, simulator,
                      retry_failed, max_particles, no_progress):
     """Simulate SCENES (built-in names or .toml files) or --random N scenes into a dataset.
@@ -187,7 +192,11 @@ def generate_command(scenes, out, n_random, seed, dim, resolution, max_ratio, mi
         raise DcdcError("--workers must be >= 1")
     if bool(scenes) == bool(n_random):
         raise DcdcError("give scene names/files or --random N (not both, not neither)")
-    if n_random:
+    if family is not None and not n_random:
+        raise DcdcError("--family needs --random N (the number of scenes)")
+    if family is not None:
+        jobs = family_jobs(family, n_random, seed, dim or 2, duration, split, overrides or None)
+    elif n_random:
         from ..scene.random import RandomSceneConfig
         cfg = RandomSceneConfig(dim=dim or 2, max_ratio=max_ratio, min_ratio=min_ratio,
                                 density_range=tuple(density_range))

@@ -28,7 +28,7 @@ class Job:
 
     name: str
     scene_text: str | None  # None for random jobs: drawn from ``random_cfg`` when run
-    source: str  # "builtin:NAME", a file path, or "random:SEED"
+    source: str  # "builtin:NAME", a file path, "random:SEED" or "family:NAME:SEED"
     dim: int
     resolution: float = 1.0
     seed: int = 0
@@ -147,6 +147,29 @@ def random_jobs(n: int, seed: int, cfg, duration: float | None = None, split: st
                 solver_overrides, asdict(cfg)) for s in range(seed, seed + n)]
 
 
+def family_jobs(family: str, n: int, seed: int, dim: int = 2, duration: float | None = None,
+                split: str = "", solver_overrides=None) -> list[Job]:
+    """Jobs for ``n`` scenes of a scene family (dcdc.scene.families) with seeds seed ..
+    seed+n-1; ``family`` "all": scene i of family FAMILIES[i mod 8]. Seeds from
+    SUITE_SEED0 (900 000) on belong to the generalisation suite: refused unless ``split``
+    is "test"."""
+    from ..scene.families import FAMILIES, SUITE_SEED0, family_scene_text
+    if family != "all" and family not in FAMILIES:
+        raise DcdcError(f"--family must be all or one of {', '.join(FAMILIES)} (got {family!r})")
+    if n < 1:
+        raise DcdcError(f"--random must be a number of scenes >= 1 (got {n})")
+    if seed + n - 1 >= SUITE_SEED0 and split != "test":
+        raise DcdcError(f"seeds {seed}..{seed + n - 1} reach into the generalisation suite's "
+                        f"(>= {SUITE_SEED0}); training sets use seeds below {SUITE_SEED0} "
+                        "(--split test to build suite scenes)")
+    jobs = []
+    for i, s in enumerate(range(seed, seed + n)):
+        fam = FAMILIES[i % len(FAMILIES)] if family == "all" else family
+        jobs.append(Job(f"{fam}_{s}_{dim}d", family_scene_text(fam, s, dim), f"family:{fam}:{s}",
+                        dim, 1.0, s, duration, split, solver_overrides))
+    return jobs
+
+
 def parse_shard(shard: str | None) -> tuple[int, int]:
     if not shard:
         return 0, 1
@@ -209,7 +232,7 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         stale.unlink(missing_ok=True)  # left by a killed run of this same job
     rec = {"name": job.name, "source": job.source, "dim": job.dim, "seed": job.seed}
     try:
-        src_path = None if job.source.startswith(("builtin:", "random:")) else Path(job.source)
+        src_path = None if job.source.startswith(("builtin:", "random:", "family:")) else Path(job.source)
         scene = parse(job.text(), src_path.name if src_path else job.source, src_path)
         duration = check_run(scene, job.duration, job.name, warn=False)
         fdt = scene.frame_dt

@@ -81,8 +81,10 @@ WALL_SHAPES = {
     "mesh": {**MESH_PLACE, "hollow": ("bool", False), "thickness": ("L", None),
              "invert_normals": ("bool", False)},
 }
-FLUID_COMMON = {"phase": ("str", REQ), "shape": ("str", REQ), "velocity": ("vec", None),
-                "name": ("str", None)}
+# a block has one phase, or with ``phases`` (and optional ``fractions``) a random phase per
+# particle (an emulsion), drawn from the scene's seed
+FLUID_COMMON = {"phase": ("str", None), "phases": ("list", None), "fractions": ("list", None),
+                "shape": ("str", REQ), "velocity": ("vec", None), "name": ("str", None)}
 FLUID_SHAPES = {
     "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "top_wave": ("pair", None),
             "bottom_wave": ("pair", None)},
@@ -327,8 +329,7 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
         if shape not in FLUID_SHAPES:
             ck.fail(f"{p}.shape", f"must be one of {', '.join(FLUID_SHAPES)} (got {shape!r})")
         fb = ck.table(p, f, {**FLUID_COMMON, **FLUID_SHAPES[shape]}, dim)
-        if fb["phase"] not in phases:
-            ck.fail(f"{p}.phase", f"names no phase (phases: {', '.join(phases)})")
+        _check_fluid_phases(ck, p, fb, phases)
         if fb["velocity"] is None:
             fb["velocity"] = [0.0] * dim
         if shape == "fill" and fb["inside"] not in walls:
@@ -367,6 +368,45 @@ def validate(raw: dict, text: str = "", source: str = "scene") -> dict:
     if not fluids and not ems:
         ck.fail("fluid", "is empty: a scene needs at least one [[fluid]] block or [[emitter]]")
     return s
+
+
+def _check_fluid_phases(ck: _Checker, p: str, fb: dict, phases: dict) -> None:
+    """A block's ``phase``, or its ``phases`` (an emulsion: distinct phase names) with
+    optional ``fractions`` (one number > 0 per phase, normalised here; default equal)."""
+    if (fb["phase"] is None) == (fb["phases"] is None):
+        ck.fail(p, "needs phase = NAME or phases = [NAME, ...] (one of them)")
+    if fb["phase"] is not None:
+        if fb["fractions"] is not None:
+            ck.fail(f"{p}.fractions", "applies to phases = [...] only")
+        if fb["phase"] not in phases:
+            ck.fail(f"{p}.phase", f"names no phase (phases: {', '.join(phases)})")
+        return
+    ps = fb["phases"]
+    if not (isinstance(ps, list) and ps and all(isinstance(n, str) for n in ps)):
+        ck.fail(f"{p}.phases", f"must be a list of phase names (got {ps!r})")
+    for n in ps:
+        if n not in phases:
+            ck.fail(f"{p}.phases", f"{n!r} names no phase (phases: {', '.join(phases)})")
+    if len(set(ps)) != len(ps):
+        ck.fail(f"{p}.phases", "names a phase twice")
+    fr = fb["fractions"]
+    if fr is None:
+        fr = [1.0] * len(ps)
+    if not (isinstance(fr, list) and len(fr) == len(ps) and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+            for v in fr)):
+        ck.fail(f"{p}.fractions", f"must be {len(ps)} numbers > 0, one per phase (got {fr!r})")
+    fb["fractions"] = [float(v) / sum(fr) for v in fr]
+
+
+def _block_phases(f: dict, i: int, n: int, names: list, seed: int) -> np.ndarray:
+    """Phase index of each of the ``n`` particles of fluid block ``i``: its phase, or for
+    ``phases`` a random one per particle (drawn with ``fractions`` from [seed, i])."""
+    if f["phases"] is None:
+        return np.full(n, names.index(f["phase"]))
+    idx = np.array([names.index(p) for p in f["phases"]])
+    rng = np.random.default_rng([int(seed), 0xE5, i])
+    return idx[rng.choice(len(idx), size=n, p=f["fractions"])]
 
 
 def _check_box_nozzle(ck: _Checker, p: str, e: dict, dim: int) -> None:
@@ -970,7 +1010,7 @@ class Scene:
         for i, f in enumerate(s["fluid"]):
             pts = _fluid_points(f, dim, spacing, anchor, lo, hi, solids, union, f"fluid[{i}]",
                                 base_dir, meshes)
-            label = f"fluid[{i}]" + (f" ({f['name']})" if f["name"] else f" ({f['phase']})")
+            label = f"fluid[{i}]" + (f" ({f['name'] or f['phase'] or '+'.join(f['phases'])})")
             line = _find_line(self.text, f"fluid[{i}]")
             at = f" (line {line})" if line else ""
             if check and not len(pts):
@@ -995,7 +1035,7 @@ class Scene:
             blocks.append((label, pts))
             xs.append(pts)
             vs.append(np.tile(np.asarray(f["velocity"], dtype=np.float64), (len(pts), 1)))
-            ph.append(np.full(len(pts), names.index(f["phase"])))
+            ph.append(_block_phases(f, i, len(pts), names, s["seed"]))
             births.append(np.zeros(len(pts)))
         for i, e in enumerate(s["emitter"]):
             if e["shape"] == "mesh":
