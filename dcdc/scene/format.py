@@ -1016,6 +1016,12 @@ class Scene:
             if check and not len(pts):
                 raise DcdcError(f"{src}: {label} holds no particles at this resolution{at}")
             if check and len(pts):
+                # the domain first: beyond it a hollow wall's solid reaches to infinity, and
+                # "inside the wall" would hide that the fluid is outside the domain
+                out = ~((pts >= lo) & (pts <= hi)).all(1)
+                if out.any():
+                    raise DcdcError(f"{src}: {label} has {int(out.sum())} particle(s) outside the "
+                                    f"domain{at}")
                 if solids:
                     d = union(pts)
                     bad = d < 0.5 * r
@@ -1052,12 +1058,6 @@ class Scene:
             if check and not ((x >= lo) & (x <= hi)).all():
                 raise DcdcError(f"{src}: emitter[{i}] {what} lies outside the domain")
             xs.append(x)
-                # the domain first: beyond it a hollow wall's solid reaches to infinity, and
-                # "inside the wall" would hide that the fluid is outside the domain
-                out = ~((pts >= lo) & (pts <= hi)).all(1)
-                if out.any():
-                    raise DcdcError(f"{src}: {label} has {int(out.sum())} particle(s) outside the "
-                                    f"domain{at}")
             vs.append(v)
             ph.append(np.full(len(x), names.index(e["phase"])))
             births.append(b)
