@@ -173,8 +173,8 @@ def write_bytes(path, data: bytes) -> Path:
     with writing(path):
         free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
     if len(data) > free:
-        raise DcdcError(f"cannot write {path}: it needs {len(data) / 2**20:.1f} MiB, the device "
-                        f"has {free / 2**20:.1f} MiB free")
+        raise DcdcError(f"cannot write {public_name(path)}: it needs {len(data) / 2**20:.1f} "
+                        f"MiB, the device has {free / 2**20:.1f} MiB free")
     with atomic_file(path) as tmp:
         with open(tmp, "wb") as fh:
             fh.write(data)

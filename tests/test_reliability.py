@@ -485,3 +485,25 @@ def test_mesh_with_huge_coordinates_is_named_so(tmp_path, capsys):
     (tmp_path / "big.obj").write_text("\n".join(lines) + "\n")
     with pytest.raises(DcdcError, match="coordinates reach 5e\\+29, beyond the 1e\\+09"):
         load_mesh(tmp_path / "big.obj")
+
+
+def test_merge_into_a_folder_on_a_full_disk_leaves_no_folder(tmp_path, capsys, monkeypatch):
+    """The merged folder appears whole or not at all (it is renamed into place)."""
+    monkeypatch.setattr(shutil, "copyfile", _disk_full)
+    out = tmp_path / "merged"
+    code, _, err = dcdc(capsys, "dataset", "merge", out, SAMPLE)
+    assert_one_line_error(code, err, f"cannot write {out}: no space left")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_disk_full_names_the_output_not_its_temporary_name(tmp_path, monkeypatch):
+    from dcdc.errors import DcdcError
+    from dcdc.outputs import atomic_dir, write_bytes
+    monkeypatch.setattr("dcdc.outputs.shutil.disk_usage",
+                        lambda p: shutil._ntuple_diskusage(10**9, 10**9 - 10, 10))
+    with pytest.raises(DcdcError) as e:
+        with atomic_dir(tmp_path / "run") as tmp:
+            write_bytes(tmp / "a.h5", b"x" * 100)
+    assert str(e.value) == (f"cannot write {tmp_path / 'run' / 'a.h5'}: it needs 0.0 MiB, the "
+                            f"device has 0.0 MiB free")
+    assert list(tmp_path.iterdir()) == []

@@ -49,7 +49,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from ..particles import ParticleSystem, Phase, active_mask
-from ..outputs import TMP_MARK, atomic_file, atomic_h5
+from ..outputs import TMP_MARK, atomic_dir, atomic_h5
 
 FORMAT = "dcdc-dataset"
 FORMAT_VERSION = 2  # 2: Fletcher-32 on every array, attrs_sha256
@@ -543,16 +543,15 @@ def merge(inputs, output, overwrite: bool = False) -> int:
         _check_merge_memory([s.path for s in sets], output)
         with atomic_h5(output) as out:
             _copy_groups([ref for s in sets for ref in s._refs], out)
-    else:
-        output.mkdir(parents=True, exist_ok=True)
-        for s in sets:
-            for ref in s._refs:
-                if s.path.is_dir():
-                    with atomic_file(output / f"{ref.group}.h5") as tmp:
-                        shutil.copyfile(ref.file, tmp)
-                else:
-                    with atomic_h5(output / f"{ref.group}.h5") as out:
-                        _copy_groups([ref], out)
+    else:  # a folder of trajectory files, renamed into place when all are written
+        with atomic_dir(output, overwrite=overwrite) as tmp:
+            for s in sets:
+                for ref in s._refs:
+                    if s.path.is_dir():
+                        shutil.copyfile(ref.file, tmp / f"{ref.group}.h5")
+                    else:
+                        with atomic_h5(tmp / f"{ref.group}.h5") as out:
+                            _copy_groups([ref], out)
     return len(names)
 
 
