@@ -31,6 +31,7 @@ COMMANDS = {
     "view": "dcdc.render.cli:view_command",
     "simulate": "dcdc.evaluate.cli:simulate_command",
     "evaluate": "dcdc.evaluate.cli:evaluate_command",
+    "suite": "dcdc.evaluate.suite:suite_group",
     "model": "dcdc.model.cli:model_group",
 }
 BENCHMARKS = {
@@ -70,9 +71,10 @@ REPORT_OPTIONS = ("--json",)  # options naming a report file written after the w
 
 
 def _checked_first(cmd):
-    """Make ``cmd`` check, before it runs, its report file (``--json FILE``: a missing or
-    read-only directory is an error line at once, not after minutes of work) and its
-    ``--device`` (as ``dcdc train`` does: cpu, or cuda where torch has it)."""
+    """Make ``cmd`` check, before it runs, its report file (``--json FILE``: a folder that
+    cannot be created or written is an error line at once, not after minutes of work; a
+    missing one is created) and its ``--device`` (as ``dcdc train`` does: cpu, or cuda
+    where torch has it)."""
     if not isinstance(cmd, click.Command) or getattr(cmd, "_checked_first", False):
         return cmd
     options = [p for p in cmd.params if isinstance(p, click.Option) and not p.is_flag]
@@ -83,9 +85,14 @@ def _checked_first(cmd):
 
         @functools.wraps(callback)
         def checked(*args, **kwargs):
-            from .outputs import check_file
+            from pathlib import Path
+
+            from .outputs import check_dir, check_file
             for name in reports:
                 if kwargs.get(name):
+                    folder = Path(kwargs[name]).parent
+                    if not folder.exists():  # created, as the report writers do
+                        check_dir(folder).mkdir(parents=True, exist_ok=True)
                     check_file(kwargs[name], overwrite=True)
             for name in devices:
                 if kwargs.get(name) not in (None, "cpu"):
