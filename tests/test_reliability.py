@@ -223,13 +223,14 @@ def test_seed_options_are_bounded(tmp_path, capsys, argv):
 
 
 @pytest.mark.parametrize("argv", [
-    ["validate-sph", "--quick", "--case", "hydrostatic", "--json", "{o}/missing/v.json"],
-    ["benchmark", "cconv", "--json", "{o}/missing/c.json"],
+    ["validate-sph", "--quick", "--case", "hydrostatic", "--json", "{o}/afile/v.json"],
+    ["benchmark", "cconv", "--json", "{o}/afile/sub/c.json"],
 ])
 def test_report_file_checked_before_the_work(tmp_path, capsys, argv):
-    """The message is check_file's: the work (minutes) never ran."""
+    """The message is the output check's: the work (minutes) never ran."""
+    (tmp_path / "afile").write_text("x")
     code, out, err = dcdc(capsys, *[a.format(o=tmp_path) for a in argv])
-    assert_one_line_error(code, err, "missing/", "does not exist")
+    assert_one_line_error(code, err, "afile", "is a file")
     assert out == ""
 
 

@@ -123,4 +123,5 @@ def benchmark_command(particles, frames, width, dim, json_path):
     click.echo(f"{'picture alone':<40}{draw_fps:>10.1f}{draw_cpu:>14.3f}")
     click.echo(f"{'dcdc render to MP4 (labels, encoding)':<40}{total_fps:>10.1f}{total_cpu:>14.3f}")
     if json_path:
-        Path(json_path).write_text(json.dumps(rec, indent=1) + "\n")
+        from ..outputs import write_text
+        write_text(json_path, json.dumps(rec, indent=1) + "\n")

@@ -188,4 +188,5 @@ def benchmark_command(json_path, quick, volume_map, mesh_files, note):
                        "time": time.strftime("%Y-%m-%d %H:%M:%S")},
            "cases": rows}
     if json_path:
-        Path(json_path).write_text(json.dumps(rec, indent=1) + "\n")
+        from ..outputs import write_text
+        write_text(json_path, json.dumps(rec, indent=1) + "\n")
