@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `antisym2d` before and after its fine-tuning on the current teacher's 2-D data
-# (docs/models.md, "antisym2d stage 3"), with the wall contact, on the sets of
+# (docs/models.md, "antisym2d"), with the wall contact, on the sets of
 # evaluate_2d.sh:   bash benchmarks/evaluate_antisym_2d.sh [DATA=datasets/2d_su]
 # Writes benchmarks/eval_2d_{test_scenes,canyon10,valid,test_ratio}_antisym_<set>.json, <set>
 # the data set's suffix (datasets/2d_bd -> _bd, the measurement in docs/models.md).
