@@ -29,7 +29,7 @@ from .errors import DcdcError
 TMP_MARK = ".tmp-"  # temporary names: .NAME.tmp-PID (readers skip names starting with ".")
 LOCK_NAME = ".lock"  # in a run directory: flock-ed by the process using it, holds its pid
 # errors of the device rather than of the path: the output could not be written at all
-WRITE_FAILURES = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
+WRITE_FAILURES = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS}
 
 
 def _writable_dir(d: Path, target: Path) -> None:
@@ -91,7 +91,7 @@ def tmp_name(path) -> Path:
 
 def write_failure(e: OSError, *paths) -> bool:
     """True when ``e`` is a failure to write one of ``paths`` or to write at all (a full
-    disk, a quota, a read-only or failing device)."""
+    disk, a quota, a file too large, a read-only device)."""
     if e.errno in WRITE_FAILURES:
         return True
     names = {os.fspath(p) for p in paths}
