@@ -21,6 +21,7 @@ import numpy as np
 from .errors import DcdcError, require
 
 DEFAULT_RADIUS = 0.025  # particle radius r [m]; spacing 2r
+FRAME_DT = 0.02  # [s] the interval between stored frames and one neural step (Δt)
 DEFAULT_GRAVITY = (0.0, -9.81, 0.0)
 RHO_REF = 1000.0  # reference density for the density embedding (paper eq. 4)
 TIME_EPS = 1e-9  # [s] slack of the comparisons with birth and death times

@@ -92,7 +92,6 @@ class NeuralSimulator:
     Args:
         model: a :class:`~dcdc.model.networks.CorrectionNet` or a checkpoint path.
         system: the initial state (advanced in place, like the SPH solver does).
-        dt: the step [s]; must equal the model's ``frame_dt`` (default: it).
         guard: the stability bounds (:class:`Guard`).
         time: simulated time of ``system`` (e.g. ``Trajectory.time[frame]``; emitters).
         density: optional per-particle rest densities [N] overriding the phases'.
@@ -100,8 +99,7 @@ class NeuralSimulator:
         contact: apply the walls' contact after each step (module doc).
     """
 
-    def __init__(self, model, system: ParticleSystem, dt: float | None = None,
-                 guard: Guard | None = None, time: float = 0.0, density=None,
+    def __init__(self, model, system: ParticleSystem, guard: Guard | None = None, time: float = 0.0, density=None,
                  device: str | torch.device = "cpu", contact: bool = CONTACT_DEFAULT):
         from ..model.checkpoint import check_compatible
 
@@ -109,10 +107,7 @@ class NeuralSimulator:
             raise DcdcError(f"NeuralSimulator needs a ParticleSystem (got {type(system).__name__})")
         self.model = _as_model(model, device).to(device).eval()
         cfg = self.model.cfg
-        if dt is not None and not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-            raise DcdcError(f"time step dt must be a finite number > 0 (got {dt!r})")
         check_compatible(self.model, dim=system.dim, radius=system.radius,
-                         frame_dt=cfg.frame_dt if dt is None else dt,
                          what=f"the system {system.name!r}")
         self.dt = float(cfg.frame_dt)
         rho = system.rest_density if density is None else np.asarray(density, dtype=np.float64)

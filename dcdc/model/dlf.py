@@ -27,11 +27,11 @@ from pathlib import Path
 import torch
 
 from ..errors import DcdcError
-from ..particles import DEFAULT_RADIUS
+from ..particles import DEFAULT_RADIUS, FRAME_DT
 
 LICENSE = "CDLA-Permissive-1.0 (weights); MIT (their code)"
 PARTICLE_RADIUS = DEFAULT_RADIUS  # m, their default r = 0.025 m is ours
-FRAME_DT = 1.0 / 50.0  # s
+# their frame Δt = 1/50 s is ours (FRAME_DT)
 RADIUS_SCALE = 1.5 * 6 / 2  # filter extent 1.5 · 6 r is the diameter: R = 4.5 r
 SHAPES = {  # their parameter -> shape
     "conv0_fluid.kernel": (4, 4, 4, 4, 32), "conv0_fluid.bias": (32,),

@@ -25,7 +25,6 @@ import torch
 from ..errors import DcdcError
 from ..particles import DEFAULT_GRAVITY
 
-DEFAULT_DT = 0.02  # s, one frame / one neural step
 
 
 def _gravity(gravity, dim: int, like: torch.Tensor) -> torch.Tensor:

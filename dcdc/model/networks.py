@@ -33,9 +33,8 @@ from torch import nn
 from ..errors import DcdcError
 from ..neighbors import CellGrid, Neighbors, radius_search
 from ..configs import check, check_types
-from ..particles import DEFAULT_RADIUS, RHO_REF
+from ..particles import DEFAULT_RADIUS, FRAME_DT, RHO_REF
 from .cconv import ConvGeometry, build_geometry
-from .integrator import DEFAULT_DT
 from .layers import AntisymCConvLayer, CConvLayer, DensityCConvLayer
 from .modulation import DensityEmbedding, DensityPlan
 
@@ -52,7 +51,7 @@ class NetConfig:
 
     particle_radius: float = DEFAULT_RADIUS  # r of the training data [m]
     radius_scale: float = 4.5  # CConv radius R in particle radii
-    frame_dt: float = DEFAULT_DT  # Δt of one neural step = the data's frame interval [s]
+    frame_dt: float = FRAME_DT  # Δt of one neural step = the data's frame interval [s]
     kernel_size: int = 4
     channels: tuple[int, ...] = (32, 64, 64)  # hidden widths; the output layer has d channels
     embed_dim: int = 8  # d_e of eq. 4

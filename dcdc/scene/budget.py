@@ -18,6 +18,7 @@ import math
 import os
 
 from ..errors import DcdcError
+from ..particles import FRAME_DT
 
 DEFAULT_MAX_PARTICLES = 10_000_000
 # bytes per sampled point while realising (coordinates, signed distances per solid, masks)
@@ -141,7 +142,7 @@ def check(s: dict, source: str, frames: int | None = None,
     return est
 
 
-def check_duration(duration: float | None, frame_dt: float = 0.02, what: str = "--duration") -> None:
+def check_duration(duration: float | None, frame_dt: float = FRAME_DT, what: str = "--duration") -> None:
     """A run must cover at least one frame: a finite duration >= frame_dt."""
     if duration is None:
         return

@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from ..errors import DcdcError
+from ..particles import FRAME_DT
 from .random import PALETTE, to_toml
 
 FAMILIES = ("box_layered", "box_emulsion", "box_slosh", "box_tilted",
@@ -51,7 +52,6 @@ MIN_PER_PHASE = {2: 30, 3: 100}
 RADIUS = 0.025
 SPACING = 2 * RADIUS
 DURATION = 4.0
-FRAME_DT = 0.02
 # the built-in hourglass's [solver] for a closed, completely filled container (its
 # reference_density is 0.9 x the light phase's density: here 0.9 x the lightest phase's)
 CLOSED_SOLVER = {"reference_surface": False, "reference_stratified": False, "xsph": 0.01,

@@ -36,9 +36,7 @@ except ModuleNotFoundError:  # Python 3.10: the same parser as a package
     import tomli as tomllib
 
 from ..errors import DcdcError
-from ..particles import DEFAULT_RADIUS, ParticleSystem, Phase
-
-FRAME_DT = 0.02
+from ..particles import DEFAULT_RADIUS, FRAME_DT, ParticleSystem, Phase
 
 # ------------------------------------------------------------------ schema
 # kinds: str, int, seed (0 .. 2^63 - 1), bool, float, pos (>0), nonneg (>=0), L (length > 0),

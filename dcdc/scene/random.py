@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DcdcError, require
+from ..particles import FRAME_DT
 
 MESH_ASSETS = ("asset:rock.obj", "asset:wedge.obj", "asset:capsule.obj")
 PALETTE = ["#d8322a", "#2fa33a", "#2f58d0", "#f2c230"]
@@ -215,7 +216,7 @@ def _draw(rng, seed, cfg, sp) -> dict:
     phases = {k: v for k, v in phases.items() if k in used}
     if not fluid or len(phases) < n_phases_min:
         raise DcdcError("no room for the fluid blocks")
-    duration = cfg.duration if cfg.duration is not None else round(float(rng.uniform(2.0, 3.0)) / 0.02) * 0.02
+    duration = cfg.duration if cfg.duration is not None else round(float(rng.uniform(2.0, 3.0)) / FRAME_DT) * FRAME_DT
     ratio = max(p["density"] for p in phases.values()) / min(p["density"] for p in phases.values())
     if len(phases) > 1 and not cfg.min_ratio * (1 - 1e-6) <= ratio <= cfg.max_ratio * (1 + 1e-6):
         raise DcdcError("a block with an extreme density found no room")

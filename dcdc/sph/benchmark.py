@@ -18,7 +18,7 @@ import click
 import numpy as np
 
 from ..errors import DcdcError
-from ..particles import DEFAULT_RADIUS, ParticleSystem, Phase
+from ..particles import DEFAULT_RADIUS, FRAME_DT, ParticleSystem, Phase
 from .cases import tank_system
 from .config import SPHConfig
 from .solver import Simulator
@@ -47,17 +47,17 @@ def benchmark_system(ratio: float, n_target: int = 10000, dim: int = 3,
 def run_ours(system: ParticleSystem, duration: float, cfg: SPHConfig | None = None) -> dict:
     """Time ``duration`` simulated seconds (after one warm-up frame) of our solver."""
     sim = Simulator(system, cfg or SPHConfig())
-    sim.advance(0.02)  # compile / warm caches; not timed
+    sim.advance(FRAME_DT)  # compile / warm caches; not timed
     t0 = sim.totals.copy()
-    n_frames = max(1, int(round(duration / 0.02)))
+    n_frames = max(1, int(round(duration / FRAME_DT)))
     vmax = 0.0
     start = time.perf_counter()
     for _ in range(n_frames):
-        st = sim.advance(0.02)
+        st = sim.advance(FRAME_DT)
         vmax = max(vmax, st["max_speed"])
     wall = time.perf_counter() - start
     subs = sim.totals["substeps"] - t0["substeps"]
-    sim_time = n_frames * 0.02
+    sim_time = n_frames * FRAME_DT
     return {
         "solver": f"dcdc {sim.cfg.solver}",
         "fluid_particles": system.n_fluid,

@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from ..errors import DcdcError
+from ..particles import FRAME_DT
 
 CASES = ((2, 1000), (3, 4000))
 
@@ -31,7 +32,7 @@ def _batch(dim: int, n: int, unroll: int):
     from .sampler import collate
 
     x, v, rho, wx, wn = tank(n, dim)
-    frames = np.stack([x + k * 0.02 * v for k in range(unroll + 1)])  # targets: any frames
+    frames = np.stack([x + k * FRAME_DT * v for k in range(unroll + 1)])  # targets: any frames
     g = np.zeros(dim)
     g[1] = -9.81
     return collate([{"position": frames, "velocity": v, "density": rho, "wall_position": wx,

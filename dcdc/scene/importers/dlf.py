@@ -30,7 +30,7 @@ import numpy as np
 
 from ...errors import DcdcError
 from ...particles import DEFAULT_RADIUS as PARTICLE_RADIUS  # their r = 0.025 m is ours
-from ..format import FRAME_DT  # their Δt = 1/50 s is ours
+from ...particles import FRAME_DT  # their Δt = 1/50 s is ours
 from .common import Reader, domain, finish, scene_name, toml_path, unique
 
 TOP_KEYS = {"walls", "fluids"}
