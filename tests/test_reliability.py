@@ -508,3 +508,33 @@ def test_disk_full_names_the_output_not_its_temporary_name(tmp_path, monkeypatch
     assert str(e.value) == (f"cannot write {tmp_path / 'run' / 'a.h5'}: it needs 0.0 MiB, the "
                             f"device has 0.0 MiB free")
     assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ Ctrl-C in set-up
+def test_first_signal_stops_set_up_at_once():
+    """Set-up code (building a large scene) has no safe point for minutes: inside
+    interrupt.at_once the first Ctrl-C raises there and then, through ``except Exception``
+    clauses of the code it lands in."""
+    import signal
+    import time
+
+    from dcdc.data import interrupt
+    from dcdc.errors import Interrupted
+    reached = []
+    with pytest.raises(Interrupted) as e:
+        with interrupt.handling(), interrupt.at_once():
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(5)
+                reached.append("after")
+            except Exception:  # a library's own error handling does not take it
+                reached.append("swallowed")
+    assert e.value.exit_code == 130 and reached == []
+    # outside at_once the first signal waits for a safe point, as before
+    with pytest.raises(Interrupted):
+        with interrupt.handling():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.2)
+            reached.append("safe point")
+            interrupt.check()
+    assert reached == ["safe point"]

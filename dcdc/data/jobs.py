@@ -238,10 +238,11 @@ def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
         fdt = scene.frame_dt
         n_frames = int(round(duration / fdt))
         T = n_frames + 1
-        system = scene.realize(dim=job.dim, resolution=job.resolution, frames=T,
-                               max_particles=job.max_particles)
-        settings = {**scene.solver, **(job.solver_overrides or {})}
-        sim, solver_name, settings_used = make_simulator(simulator, system, settings)
+        with interrupt.at_once():  # building a large scene takes minutes without a frame
+            system = scene.realize(dim=job.dim, resolution=job.resolution, frames=T,
+                                   max_particles=job.max_particles)
+            settings = {**scene.solver, **(job.solver_overrides or {})}
+            sim, solver_name, settings_used = make_simulator(simulator, system, settings)
         xs = np.empty((T,) + system.x.shape, dtype=np.float32)
         vs = np.empty_like(xs)
         xs[0], vs[0] = system.x, system.v
