@@ -17,8 +17,9 @@ Design (resumable, shardable, never half-written):
 - ``--workers W`` runs W scenes at once in spawned processes (:mod:`.pool`: one job at a
   time per worker, workers die with their parent); each sets its numba thread count to
   max(1, cores // W) so the machine is not oversubscribed.
-- Ctrl-C / SIGTERM stop the run between solver steps (:mod:`.interrupt`): finished
-  trajectories stay, in-flight ones are discarded, re-running resumes.
+- Ctrl-C / SIGTERM stop the run between solver steps, or at once while a scene is being
+  built (:mod:`.interrupt`): finished trajectories stay, in-flight ones are discarded,
+  re-running resumes.
 - Before any work: the output directory is checked (:mod:`dcdc.outputs`), every scene's
   particle and memory budget (:mod:`dcdc.scene.budget`) and the run's duration.
 """
