@@ -119,13 +119,16 @@ def _gib(nbytes: float) -> str:
 def check(s: dict, source: str, frames: int | None = None,
           max_particles: float | None = None) -> dict:
     """Refuse the scene variant ``s`` (named ``source`` in the message) if it is over
-    budget; ``frames`` adds the trajectory kept in memory by ``dcdc generate``."""
+    budget; ``frames`` adds the trajectory kept in memory by ``dcdc generate`` and its file
+    image."""
     est = estimate(s)
     points = est["fluid"] + est["emitted"] + est["wall_lattice"]
     particles = est["fluid"] + est["emitted"]
     nbytes = (est["wall_lattice"] * BYTES_PER_LATTICE_POINT
               + (est["fluid"] + est["emitted"]) * BYTES_PER_PARTICLE
-              + (frames * particles * s["dim"] * 4 * 2 if frames else 0.0))  # float32 x, v
+              # float32 positions and velocities, and the file's image built from them in
+              # memory before it is written (dcdc.outputs.atomic_h5): at most as large
+              + (frames * particles * s["dim"] * 4 * 2 * 2 if frames else 0.0))
     est.update(points=points, bytes=nbytes)
     limit = default_limit() if max_particles is None else float(max_particles)
     if not limit > 0:  # nan would turn the budget off
