@@ -226,7 +226,7 @@ def test_export_overwrite_replaces_the_whole_folder(tmp_path, capsys):
     code, _, err = dcdc(capsys, "dataset", "export-lagrangebench", "--train",
                         ROOT / "data/sample/train2d", "-o", out, "--overwrite")
     assert code == 0, err
-    assert sorted(p.name for p in out.iterdir()) == ["metadata.json", "train.h5"]
+    assert sorted(p.name for p in out.iterdir()) == ["force.py", "metadata.json", "train.h5"]
     assert not list(tmp_path.glob(".*tmp*"))
 
 

@@ -157,12 +157,15 @@ def test_cli_info_and_lagrangebench_export(ballistic, tmp_path):
     r = cli("dataset", "info", str(ballistic), "--list")
     assert r.returncode == 0 and "3 finished" in r.stdout and "random_2_2d" in r.stdout
     meta = export_lagrangebench({"train": ballistic, "test": ballistic}, tmp_path / "lb")
-    assert meta["num_trajs_train"] == 3 and meta["sequence_length_train"] == 11
+    # 11 frames: LagrangeBench's sequence length counts the steps, 10
+    assert meta["num_trajs_train"] == 3 and meta["sequence_length_train"] == 10
     with h5py.File(tmp_path / "lb" / "train.h5") as f:
         assert list(f.keys()) == ["00000", "00001", "00002"]
         pos, pt = f["00000/position"][()], f["00000/particle_type"][()]
     t = Dataset(ballistic)[0]
-    assert pos.shape == (11, t.n_particles + len(t.wall_x), 2) and set(np.unique(pt)) == {0, 1}
+    n = t.n_particles + len(t.wall_x)   # then padding (type -1) up to num_particles_max
+    assert pos.shape == (11, meta["num_particles_max"], 2) and set(np.unique(pt[:n])) <= {0, 1, 4}
+    assert (pt[n:] == -1).all() and (pt[t.n_particles:n] == 1).all()
     for k in ("dt", "dx", "bounds", "vel_mean", "acc_std", "default_connectivity_radius", "dim"):
         assert k in json.load(open(tmp_path / "lb" / "metadata.json"))
 

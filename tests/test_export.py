@@ -5,13 +5,18 @@ from dcdc.errors import DcdcError
 from dcdc.export import write_points
 
 
+PLY_TYPES = {"float": "<f4", "int": "<i4", "uchar": "u1"}
+
+
 def _read_ply(path):
+    """(property names, PLY types, structured vertex table) of a binary PLY."""
     raw = open(path, "rb").read()
     head, body = raw.split(b"end_header\n", 1)
-    props = [l.split()[-1].decode() for l in head.splitlines() if l.startswith(b"property")]
+    props = [l.split()[1:] for l in head.splitlines() if l.startswith(b"property")]
+    names, types = [p[1].decode() for p in props], [p[0].decode() for p in props]
     n = int([l for l in head.splitlines() if l.startswith(b"element vertex")][0].split()[-1])
-    table = np.frombuffer(body, dtype="<f4").reshape(n, len(props))
-    return props, table
+    table = np.frombuffer(body, dtype=[(k, PLY_TYPES[t]) for k, t in zip(names, types)], count=n)
+    return names, types, table
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -20,12 +25,16 @@ def test_ply_roundtrip(tmp_path, dim):
     x = rng.normal(size=(50, dim))
     v = rng.normal(size=(50, dim))
     phase = rng.integers(0, 4, 50)
-    props, table = _read_ply(write_points(tmp_path / "f.ply", x, {"velocity": v, "phase": phase}))
-    assert props[:3] == ["x", "y", "z"] and "velocity_x" in props and props[-1] == "phase"
-    np.testing.assert_allclose(table[:, :dim], x, rtol=1e-6)
-    np.testing.assert_array_equal(table[:, -1], phase)
+    names, types, table = _read_ply(write_points(tmp_path / "f.ply", x, {"velocity": v, "phase": phase}))
+    assert names == ["x", "y", "z", "velocity_x", "velocity_y", "velocity_z", "phase"]
+    assert types == ["float"] * 6 + ["int"]   # integer fields stay integers
+    np.testing.assert_allclose(np.stack([table["x"], table["y"]], 1), x[:, :2], rtol=1e-6)
+    np.testing.assert_allclose(table["velocity_y"], v[:, 1], rtol=1e-6)
+    np.testing.assert_array_equal(table["phase"], phase)
     if dim == 2:
-        assert np.all(table[:, 2] == 0)
+        assert np.all(table["z"] == 0)
+    else:
+        np.testing.assert_allclose(table["z"], x[:, 2], rtol=1e-6)
 
 
 def test_vtk_layout(tmp_path):
@@ -44,6 +53,8 @@ def test_bad_export_input(tmp_path):
         write_points(tmp_path / "f.xyz", np.zeros((2, 3)))
     with pytest.raises(DcdcError, match="field 'a' has 3 values for 2"):
         write_points(tmp_path / "f.ply", np.zeros((2, 3)), {"a": np.zeros(3)})
+    with pytest.raises(DcdcError, match="int32 range"):
+        write_points(tmp_path / "f.ply", np.zeros((2, 3)), {"a": np.array([0, 2**40])})
 
 
 # ----------------------------------------------------------------- dcdc export (whole runs)
@@ -95,6 +106,31 @@ def test_export_ply_frames_read_back_with_meshio(tmp_path):
     red = m.point_data["red"].astype(np.uint8)  # meshio reads uchar as int8
     want = np.round(np.array([p.color for p in traj.phases])[traj.phase, 0] * 255)
     np.testing.assert_array_equal(red, want)
+
+
+def test_export_ply_types_and_normals_read_back_with_trimesh(tmp_path):
+    """Ids int32, phases uchar, wall normals nx ny nz: as trimesh's PLY reader parses them
+    (and our own header reader)."""
+    trimesh = pytest.importorskip("trimesh")
+    traj = open_trajectory(SAMPLE)
+    out = tmp_path / "ply"
+    assert _cli("export", SAMPLE, "--format", "ply", "--frames", "20:21", "--out", out,
+                "--no-progress") == 0
+    frame = trimesh.load(out / "frame_00020.ply")
+    v = frame.metadata["_ply_raw"]["vertex"]["data"]
+    assert v.dtype["id"] == np.dtype("<i4") and v.dtype["phase"] == np.dtype("u1")
+    assert v.dtype["density"] == np.dtype("<f4") and v.dtype["red"] == np.dtype("u1")
+    np.testing.assert_array_equal(v["id"], np.arange(traj.n_particles))
+    np.testing.assert_array_equal(v["phase"], traj.phase)
+    np.testing.assert_allclose(frame.vertices[:, :2], traj.position[20], rtol=1e-6)
+    names, types, _ = _read_ply(out / "frame_00020.ply")
+    assert dict(zip(names, types))["id"] == "int" and dict(zip(names, types))["phase"] == "uchar"
+    walls = trimesh.load(out / "walls.ply")
+    w = walls.metadata["_ply_raw"]["vertex"]["data"]
+    assert [k for k in w.dtype.names if k.startswith("n")] == ["nx", "ny", "nz"]
+    assert not any(k.startswith("normal") for k in w.dtype.names)
+    np.testing.assert_allclose(np.stack([w["nx"], w["ny"]], 1), traj.wall_n, rtol=1e-6)
+    assert np.all(w["nz"] == 0)
 
 
 def test_export_skips_unborn_particles(tmp_path):

@@ -98,9 +98,11 @@ def merge_command(output, inputs, overwrite):
 @click.option("-o", "--out", type=click.Path(), required=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing non-empty OUT directory.")
 def export_lb_command(train, valid, test, out, overwrite):
-    """Write train/valid/test.h5 + metadata.json in the LagrangeBench layout."""
+    """Write train/valid/test.h5 + metadata.json (+ force.py: gravity) in the LagrangeBench layout."""
     from .lagrangebench import export_lagrangebench
     splits = {k: v for k, v in (("train", train), ("valid", valid), ("test", test)) if v}
-    meta = export_lagrangebench(splits, out, overwrite=overwrite)
-    click.echo(f"wrote {', '.join(f'{k}.h5' for k in splits)} + metadata.json to {out} "
+    meta = export_lagrangebench(splits, out, overwrite=overwrite,
+                                warn=lambda text: click.echo(f"note: {text}", err=True))
+    click.echo(f"wrote {', '.join(f'{k}.h5' for k in splits)} + metadata.json"
+               f"{' + force.py' if any(meta['gravity']) else ''} to {out} "
                f"({meta['num_trajs_train']} train trajectories, {meta['num_particles_max']} particles max)")

@@ -32,14 +32,20 @@ def _as_3d(a: np.ndarray) -> np.ndarray:
 
 
 def _columns(x: np.ndarray, fields: dict[str, np.ndarray]):
-    """Positions as 3-D and each field as float32 scalar columns / 3-D vectors, checked."""
+    """Positions as 3-D and each field as float32 scalar columns / 3-D vectors, checked
+    (integer scalar fields keep their integer type)."""
     x3 = _as_3d(x)
     cols = {}
     for name, f in fields.items():
         f = np.asarray(f)
         if len(f) != len(x3):
             raise DcdcError(f"field '{name}' has {len(f)} values for {len(x3)} particles")
-        cols[name] = _as_3d(f) if f.ndim == 2 else f.astype(np.float32).reshape(-1)
+        if f.ndim == 2:
+            cols[name] = _as_3d(f)
+        elif f.dtype.kind in "iub":
+            cols[name] = f.reshape(-1)
+        else:
+            cols[name] = f.astype(np.float32).reshape(-1)
     return x3, cols
 
 
@@ -51,37 +57,61 @@ def _atomic_write(path: str | os.PathLike, data: bytes) -> Path:
     return path
 
 
+PLY_VECTOR_NAMES = {"normal": ("nx", "ny", "nz")}  # the PLY names readers map to normals
+
+
+def _ply_int_type(a: np.ndarray) -> tuple[str, str]:
+    """(PLY type, numpy dtype) of an integer field: ``uchar`` when unsigned 8-bit, else ``int``
+    (int32; values outside its range are refused)."""
+    if a.dtype == np.uint8 or a.dtype == np.bool_:
+        return "uchar", "u1"
+    if len(a) and (a.min() < np.iinfo(np.int32).min or a.max() > np.iinfo(np.int32).max):
+        raise DcdcError("integer field out of the int32 range of PLY 'int'")
+    return "int", "<i4"
+
+
 def write_ply(path, x: np.ndarray, fields: dict[str, np.ndarray] | None = None,
               colors: np.ndarray | None = None, triangles: np.ndarray | None = None) -> Path:
-    """Binary little-endian PLY vertex list (x, y, z + one float property per scalar and
-    ``name_x/_y/_z`` per vector field, then ``red green blue`` uchar when ``colors`` [N, 3]
-    in [0, 1] are given), and a face list when ``triangles`` [F, 3] are given; Blender and
-    ParaView read it."""
+    """Binary little-endian PLY (Paul Bourke's "PLY - Polygon File Format"): a vertex list
+    with ``x y z`` float, one property per scalar field (``float``; integer fields
+    ``int`` = int32, or ``uchar`` when given as uint8), three per vector field
+    (``name_x/_y/_z`` float; the field ``normal`` as ``nx ny nz``, the names Blender,
+    MeshLab, Open3D and trimesh read as vertex normals), then ``red green blue`` uchar when
+    ``colors`` [N, 3] in [0, 1] are given; and a face list when ``triangles`` [F, 3] are
+    given. Blender and ParaView read it."""
     x3, cols = _columns(x, fields or {})
-    names, arrays = ["x", "y", "z"], [x3]
+    dtype = [(n, "<f4") for n in ("x", "y", "z")]
+    props = ["property float x", "property float y", "property float z"]
+    columns = [x3[:, 0], x3[:, 1], x3[:, 2]]
     for name, c in cols.items():
         if c.ndim == 2:
-            names += [f"{name}_x", f"{name}_y", f"{name}_z"]
+            names = PLY_VECTOR_NAMES.get(name, (f"{name}_x", f"{name}_y", f"{name}_z"))
+            dtype += [(n, "<f4") for n in names]
+            props += [f"property float {n}" for n in names]
+            columns += [c[:, 0], c[:, 1], c[:, 2]]
+        elif c.dtype.kind in "iub":
+            ply_type, np_type = _ply_int_type(c)
+            dtype.append((name, np_type))
+            props.append(f"property {ply_type} {name}")
+            columns.append(c)
         else:
-            names.append(name)
-            c = c[:, None]
-        arrays.append(c)
-    floats = np.concatenate(arrays, 1).astype("<f4")
-    dtype = [(n, "<f4") for n in names]
-    props = [f"property float {n}" for n in names]
+            dtype.append((name, "<f4"))
+            props.append(f"property float {name}")
+            columns.append(c)
     if colors is not None:
         colors = np.asarray(colors, np.float64)
         if colors.shape != (len(x3), 3):
             raise DcdcError(f"colors must be [{len(x3)}, 3], got {colors.shape}")
+        rgb = np.clip(np.round(colors * 255), 0, 255).astype(np.uint8)
         dtype += [(c, "u1") for c in ("red", "green", "blue")]
         props += [f"property uchar {c}" for c in ("red", "green", "blue")]
+        columns += [rgb[:, 0], rgb[:, 1], rgb[:, 2]]
+    names = [d[0] for d in dtype]
+    if len(set(names)) != len(names):
+        raise DcdcError(f"PLY property names repeat: {', '.join(names)}")
     table = np.empty(len(x3), dtype)
-    for k, n in enumerate(names):
-        table[n] = floats[:, k]
-    if colors is not None:
-        rgb = np.clip(np.round(colors * 255), 0, 255).astype(np.uint8)
-        for k, c in enumerate(("red", "green", "blue")):
-            table[c] = rgb[:, k]
+    for (n, _), c in zip(dtype, columns):
+        table[n] = c
     header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(x3)}"]
     header += props
     faces = b""
@@ -191,6 +221,7 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None,
     particles as ``walls.*`` (field ``normal``), each mesh wall of a 3-D scene as the
     triangle surface ``walls_mesh_NAME.*`` (:mod:`.walls`), and for VTU ``NAME.pvd`` (the
     time series; wall particles part 1, meshes parts 2, 3, … at every time).
+    In PLY ``id`` is ``int`` (int32), ``phase`` ``uchar`` and the wall normals ``nx ny nz``.
     ``progress(1)`` is called per frame, ``warn(text)`` for a mesh that cannot be found.
     Returns the written files."""
     if fmt not in EXPORT_FORMATS:
@@ -226,6 +257,8 @@ def export_trajectory(traj, fmt: str, out_dir, frames=None, progress=None,
         name = f"frame_{f:05d}{ext}"
         x = traj._get("position", f)[active]
         if fmt == "ply":
+            if len(colors) <= 256:  # the phase as uchar, id as int
+                fields["phase"] = fields["phase"].astype(np.uint8)
             written.append(write_ply(out_dir / name, x, fields, colors=colors[phase[active]]))
         else:
             written.append(writer(out_dir / name, x, fields))

@@ -9,10 +9,18 @@ the data inlined as one JSON object:
   colours, frame times;
 * wall positions (uint16) and normals (int8), base64: the page draws a wall point only
   where its normal faces the camera, so the front walls are cut away at every angle;
-* mesh walls as faint triangles (:func:`mesh_data`), culled the same way.
+* mesh walls as faint triangles (:func:`mesh_data`), culled the same way;
+* the speed |v| of every particle in every kept frame quantised to uint8 in [0, the largest
+  speed of those frames] (step <= ``speed_max`` / 255), base64, and the colour map
+  (matplotlib's viridis sampled at 17 points, interpolated linearly in the page) for the
+  speed and rest-density colourings and their colour bar.
+
+The page colours by phase, speed or rest density (the legend, or a colour bar with its
+range), shows a scale bar (a length of 1, 2 or 5 x 10^k m at the depth of the view's
+centre) and plays at 0.1x to 4x real time.
 
 Frames are subsampled to at most ``max_frames`` (every k-th frame with the smallest k that
-fits, the last frame always kept) so the file stays small: 6 bytes per particle and frame
+fits, the last frame always kept) so the file stays small: 7 bytes per particle and frame
 before base64 (+33 %).
 """
 from __future__ import annotations
@@ -24,6 +32,7 @@ from importlib import resources
 import numpy as np
 
 from ..errors import DcdcError
+from ..particles import active_mask
 from .camera import DEFAULT_VIEW, PRESETS, fit_camera
 from .frames import scene_bounds
 
@@ -52,6 +61,32 @@ def _quantise(x: np.ndarray, lo: np.ndarray, span: np.ndarray) -> np.ndarray:
     return np.clip(q, 0, 65535).astype("<u2")
 
 
+COLORMAP_POINTS = 17
+
+
+def colormap(points: int = COLORMAP_POINTS) -> list[list[float]]:
+    """matplotlib's viridis at ``points`` evenly spaced values, RGB in [0, 1]."""
+    import matplotlib
+    rgb = matplotlib.colormaps["viridis"](np.linspace(0.0, 1.0, points))[:, :3]
+    return np.round(rgb, 4).tolist()
+
+
+def speeds(traj, frames: list[int]) -> tuple[np.ndarray, float]:
+    """|v| [F, N] quantised to uint8 in [0, vmax] and vmax [m/s], the largest speed of the
+    particles present in ``frames`` (1 when nothing moves, so the scale is never empty)."""
+    out = np.zeros((len(frames), traj.n_particles), np.uint8)
+    if not traj.n_particles:
+        return out, 1.0
+    s = np.stack([np.linalg.norm(traj._get("velocity", f).astype(np.float64), axis=1)
+                  for f in frames])
+    s = np.nan_to_num(s, nan=0.0, posinf=0.0)
+    birth, death, t = traj.birth, getattr(traj, "death", None), traj.time
+    present = np.stack([active_mask(birth, death, float(t[f])) for f in frames])
+    vmax = float(np.max(np.where(present, s, 0.0))) or 1.0
+    out[:] = np.clip(np.round(s / vmax * 255.0), 0, 255)
+    return out, vmax
+
+
 def page_data(traj, frames: list[int]) -> dict:
     """The JSON object the page reads (see the module docstring)."""
     dim = traj.dim
@@ -76,6 +111,7 @@ def page_data(traj, frames: list[int]) -> dict:
         cam = fit_camera(np.r_[lo, 0.0], np.r_[hi, traj.radius], 800, 600, azimuth=0, elevation=0)
         distance = float(np.linalg.norm(np.subtract(cam.eye, cam.target)))
     solver = str(traj.attrs.get("solver", "") or "")
+    speed, vmax = speeds(traj, frames)
     return {
         "name": traj.name, "dim": dim, "radius": traj.radius, "n": traj.n_particles,
         "n_walls": len(walls), "lo": lo3.tolist(), "hi": hi3.tolist(),
@@ -90,6 +126,7 @@ def page_data(traj, frames: list[int]) -> dict:
         "birth": _b64(traj.birth.astype("<f4")),
         "wall_positions": _b64(_quantise(walls, lo3, span)),
         "wall_normals": _b64(np.clip(np.round(normals * 127), -127, 127).astype(np.int8)),
+        "speed": _b64(speed), "speed_max": vmax, "colormap": colormap(),
         **mesh_data(traj),
     }
 
