@@ -99,7 +99,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     from .data.dataset import Dataset
     from .data.jobs import code_version, run_job, scene_jobs
     from .outputs import atomic_dir, check_dir
-    from .export import write_points
+    from .render.export import write_points
     from .model.checkpoint import check_compatible, load_checkpoint
     from .render import animate, snapshot_strip
     from .scene import parse

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from dcdc.errors import DcdcError
-from dcdc.export import write_points
+from dcdc.render.export import write_points
 
 
 PLY_TYPES = {"float": "<f4", "int": "<i4", "uchar": "u1"}
