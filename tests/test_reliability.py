@@ -538,3 +538,20 @@ def test_first_signal_stops_set_up_at_once():
             reached.append("safe point")
             interrupt.check()
     assert reached == ["safe point"]
+
+
+def test_training_on_a_diverged_trajectory_names_it(tmp_path, capsys):
+    import h5py
+    data = tmp_path / "train"
+    shutil.copytree(ROOT / "data/sample/train2d", data)
+    bad = sorted(data.glob("*.h5"))
+    for p in bad:
+        with h5py.File(p, "r+") as f:
+            for name in f:
+                x = f[name]["position"][()]
+                x[:, 0] = np.nan
+                f[name]["position"][...] = x
+    code, _, err = dcdc(capsys, "train", TINY, "--set", f"data.train={str(data)!r}",
+                        "--set", "optim.steps=1", "--no-progress", "--out", tmp_path / "run")
+    assert_one_line_error(code, err, str(data), "non-finite positions in frame",
+                          "a diverged run")

@@ -345,7 +345,14 @@ class Trajectory:
             raise DcdcError(f"window {start}..{start + length - 1} outside {self.name} "
                             f"(frames 0..{self.n_frames - 1})")
         sl = slice(start, start + length)
-        return {"position": self._get("position", sl), "velocity": self._get("velocity", sl),
+        x, v = self._get("position", sl), self._get("velocity", sl)
+        for key, a in (("position", x), ("velocity", v)):
+            if not np.isfinite(a).all():  # a diverged run: training would only see NaN loss
+                k = start + int(np.flatnonzero(~np.isfinite(a).reshape(len(a), -1).all(1))[0])
+                raise DcdcError(f"{self.ref.file}: trajectory {self.name} has non-finite "
+                                f"{key}s in frame {k} (a diverged run); remove it from the "
+                                f"dataset")
+        return {"position": x, "velocity": v,
                 "time": self.time[sl], "phase": self.phase, "density": self.density,
                 "birth": self.birth, "death": self.death, "wall_position": self.wall_x, "wall_normal": self.wall_n,
                 "gravity": self.gravity, "radius": self.radius, "frame_dt": self.frame_dt}
