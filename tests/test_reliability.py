@@ -1,6 +1,6 @@
 """Faults of the machine and of the user's inputs that reach the writers: a full disk, two
 trainings into one run directory, inputs that would fail only after the expensive work,
-and inputs that used to end in a traceback or a silently wrong result.
+and inputs that would otherwise end in a traceback or a silently wrong result.
 
 Each case runs the real CLI in-process (``dcdc.cli.main``), so a traceback fails it.
 """
@@ -114,8 +114,8 @@ def _tmpfs_shell(folder: Path, script: str, size: str = "300k") -> subprocess.Co
 
 def test_real_full_disk_generate(tmp_path):
     """A dataset larger than a 300 kB file system: HDF5 never writes to the disk itself, so
-    the run ends in one error line (it used to crash in HDF5's clean-up) and leaves only
-    the empty output folder."""
+    the run ends in one error line (HDF5 writing in place crashes in its clean-up) and
+    leaves only the empty output folder."""
     r = _tmpfs_shell(tmp_path / "T", "$DCDC generate lock_exchange --dim 2 --simulator ballistic "
                      "--no-progress -o $T/out && ls -A $T/out")
     lines = r.stdout.strip().splitlines()
