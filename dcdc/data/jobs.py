@@ -183,6 +183,20 @@ def parse_shard(shard: str | None) -> tuple[int, int]:
 
 
 # ------------------------------------------------------------------ one trajectory
+def check_run(scene, duration: float | None = None, source: str | None = None,
+              warn: bool = True) -> float:
+    """What a run of ``scene`` must pass before it starts (``dcdc generate`` and ``dcdc
+    scene show`` alike): it covers at least one frame, and no emitter starts after its end
+    (a warning, with ``warn``, when ``duration`` — ``--duration`` — overrides the scene's).
+    Returns the run's duration."""
+    run = duration if duration is not None else scene.duration
+    src = source or scene.source
+    check_duration(run, scene.frame_dt, "--duration" if duration is not None else f"{src}: duration")
+    if duration is None or warn:
+        check_emitters(scene, run, src, override=duration is not None)
+    return run
+
+
 def check_emitters(scene, duration: float, source: str, override: bool = False) -> None:
     """An emitter that starts when the run is already over stores particles that are never
     born: an error in the scene itself, a warning when ``--duration`` (``override``) cuts
@@ -205,20 +219,6 @@ def set_threads(threads: int) -> None:
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     except Exception:  # pragma: no cover - numba always present in this project
         pass
-
-def check_run(scene, duration: float | None = None, source: str | None = None,
-              warn: bool = True) -> float:
-    """What a run of ``scene`` must pass before it starts (``dcdc generate`` and ``dcdc
-    scene show`` alike): it covers at least one frame, and no emitter starts after its end
-    (a warning, with ``warn``, when ``duration`` — ``--duration`` — overrides the scene's).
-    Returns the run's duration."""
-    run = duration if duration is not None else scene.duration
-    src = source or scene.source
-    check_duration(run, scene.frame_dt, "--duration" if duration is not None else f"{src}: duration")
-    if duration is None or warn:
-        check_emitters(scene, run, src, override=duration is not None)
-    return run
-
 
 
 def run_job(job: Job, out_dir, simulator: str = "sph", progress=None,
