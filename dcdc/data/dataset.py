@@ -52,6 +52,8 @@ from ..particles import ParticleSystem, Phase, active_mask
 from ..outputs import TMP_MARK, atomic_dir, atomic_h5
 
 FORMAT = "dcdc-dataset"
+MAX_SPEED = 1e3  # [m/s] beyond any liquid flow here (the SPH solver's own bound is 50 m/s)
+MAX_POSITION = 1e6  # [m]
 FORMAT_VERSION = 2  # 2: Fletcher-32 on every array, attrs_sha256
 UNITS = {"length": "m", "time": "s", "velocity": "m/s", "density": "kg/m^3",
          "viscosity": "m^2/s (kinematic)", "gravity": "m/s^2"}
@@ -346,21 +348,38 @@ class Trajectory:
                             f"(frames 0..{self.n_frames - 1})")
         sl = slice(start, start + length)
         x, v = self._get("position", sl), self._get("velocity", sl)
-        for key, a in (("position", x), ("velocity", v)):
-            if not np.isfinite(a).all():  # a diverged run: training would only see NaN loss
-                k = start + int(np.flatnonzero(~np.isfinite(a).reshape(len(a), -1).all(1))[0])
-                raise DcdcError(f"{self.ref.file}: trajectory {self.name} has non-finite "
-                                f"{key}s in frame {k} (a diverged run); remove it from the "
-                                f"dataset")
+        self.check_values(x, v, start)
         return {"position": x, "velocity": v,
                 "time": self.time[sl], "phase": self.phase, "density": self.density,
                 "birth": self.birth, "death": self.death, "wall_position": self.wall_x, "wall_normal": self.wall_n,
                 "gravity": self.gravity, "radius": self.radius, "frame_dt": self.frame_dt}
 
+    def check_values(self, x=None, v=None, start: int = 0) -> None:
+        """One-line :class:`DcdcError` naming the file, trajectory and frame when positions
+        ``x`` or velocities ``v`` [F, N, d] (frames ``start`` on; default: every frame) are
+        non-finite (a diverged run: training would see only NaN losses) or beyond
+        :data:`MAX_POSITION` / :data:`MAX_SPEED` (not liquid in metres and seconds: a
+        neighbour grid or a network cannot take them)."""
+        if x is None:
+            x, v = self._get("position"), self._get("velocity")
+        for key, a, bound, unit in (("position", x, MAX_POSITION, "m"),
+                                    ("velocity", v, MAX_SPEED, "m/s")):
+            a = np.asarray(a).reshape(len(a), -1)
+            bad = ~np.isfinite(a).all(1)
+            what = "non-finite {k}s (a diverged run)"
+            if not bad.any():
+                bad = (np.abs(a) > bound).any(1)
+                what = f"{{k}}s beyond {bound:g} {unit} (not a liquid in metres and seconds)"
+            if bad.any():
+                k = start + int(np.flatnonzero(bad)[0])
+                raise DcdcError(f"{self.ref.file}: trajectory {self.name} has "
+                                f"{what.format(k=key)} in frame {k}; remove it from the dataset")
+
     def system(self, frame: int = 0) -> ParticleSystem:
         """The state at ``frame`` as a :class:`ParticleSystem` (e.g. to start a rollout)."""
         x = self._get("position", frame).astype(np.float64)
         v = self._get("velocity", frame).astype(np.float64)
+        self.check_values(x[None], v[None], frame)
         return ParticleSystem(self.dim, self.radius, x, v, self.phase, self.phases,
                               self.wall_x, self.wall_n, self.gravity,
                               (self.attrs["domain_min"], self.attrs["domain_max"]),

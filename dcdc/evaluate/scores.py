@@ -202,6 +202,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
 
     check_compatible(model, dim=traj.dim, radius=traj.radius, frame_dt=traj.frame_dt,
                      what=f"trajectory {traj.name}")
+    traj.check_values()  # every frame feeds the n+1/n+2 errors and the comparisons
     s0 = int(start_frame)
     if not 0 <= s0 < traj.n_frames - 1:
         raise DcdcError(f"start frame {s0} outside {traj.name} (frames 0..{traj.n_frames - 2} "
