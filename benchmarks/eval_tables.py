@@ -24,9 +24,9 @@ def summary(path):
     n = len(trajs)
     contact = "with" if doc.get("contact", True) else "without"
     out = [f"**{Path(path).stem}** ({doc['data']}, {n} trajectories, wall contact {contact})", "",
-           "| model | n+1 mm | n+2 mm | rollout mm | Sinkhorn mm | KE err | COM err | order ok "
-           "| stable | steps (mean / requested) | stop causes | in walls (max) | contacts/step | ms/step |",
-           "|" + "---|" * 14]
+           "| model | n+1 mm | n+2 mm | rollout mm | W2 mm | KE err | COM err | order ok "
+           "| layers like SPH | stable | steps (mean / requested) | stop causes | in walls (max) | contacts/step | ms/step |",
+           "|" + "---|" * 15]
     for label, agg in doc["aggregate"].items():
         rows = [t[label] for t in trajs.values()]
         causes = Counter(r["stop_cause"] for r in rows if r["stop_cause"])
@@ -34,9 +34,9 @@ def summary(path):
         req = sum(r["steps_requested"] for r in rows) / n
         out.append(
             f"| {label} | {fmt(agg['err_n1_mm'])} | {fmt(agg['err_n2_mm'])} | "
-            f"{fmt(agg['rollout_mm'], '{:.1f}')} | {fmt(agg['sinkhorn_mm'], '{:.0f}')} | "
+            f"{fmt(agg['rollout_mm'], '{:.1f}')} | {fmt(agg.get('w2_mm'), '{:.0f}')} | "
             f"{fmt(agg['ke_error'])} | {fmt(agg['com_height_error'], '{:.3f}')} | "
-            f"{fmt(agg['order_ok'])} | {agg['stable']}/{n} | {steps:.0f} / {req:.0f} | "
+            f"{fmt(agg['order_ok'])} | {fmt(agg.get('layers_ok'))} | {agg['stable']}/{n} | {steps:.0f} / {req:.0f} | "
             f"{', '.join(f'{k} {v}' for k, v in sorted(causes.items())) or '-'} | "
             f"{max(r['in_walls_max'] for r in rows)} | "
             f"{fmt(agg.get('contacts_per_step'), '{:.1f}')} | {fmt(agg['ms_per_step'], '{:.1f}')} |")
@@ -64,7 +64,8 @@ def summary(path):
 
 
 PAIRED = [("n+1 mm", "err_n1_mm"), ("n+2 mm", "err_n2_mm"), ("rollout mm", "rollout_mm"),
-          ("Sinkhorn mm", "sinkhorn_mm"), ("COM err", "com_height_error"),
+          ("W2 mm", "w2_mm"), ("COM err", "com_height_error"),
+          ("height W1 / column", "height_w1_rel_max"), ("purity / SPH's, lowest phase (HIGHER is better)", "purity_ratio_min"),
           ("KE err", "ke_error")]
 
 
