@@ -553,5 +553,5 @@ def test_training_on_a_diverged_trajectory_names_it(tmp_path, capsys):
                 f[name]["position"][...] = x
     code, _, err = dcdc(capsys, "train", TINY, "--set", f"data.train={str(data)!r}",
                         "--set", "optim.steps=1", "--no-progress", "--out", tmp_path / "run")
-    assert_one_line_error(code, err, str(data), "non-finite positions in frame",
+    assert_one_line_error(code, err, str(data), "non-finite positions", "frame",
                           "a diverged run")
