@@ -555,3 +555,16 @@ def test_training_on_a_diverged_trajectory_names_it(tmp_path, capsys):
                         "--set", "optim.steps=1", "--no-progress", "--out", tmp_path / "run")
     assert_one_line_error(code, err, str(data), "non-finite positions", "frame",
                           "a diverged run")
+
+
+def test_full_disk_while_saving_a_checkpoint_is_one_error(tmp_path, monkeypatch):
+    """A checkpoint is serialised in memory and written through the one writer path: a
+    device that refuses it gives a DcdcError naming the file and leaves no temporary file."""
+    from dcdc.errors import DcdcError
+    from dcdc.model.checkpoint import save_checkpoint
+    from dcdc.model.networks import build_network
+
+    monkeypatch.setattr("dcdc.outputs._sync", _disk_full)
+    with pytest.raises(DcdcError, match="cannot write.*m.pt.*no space left"):
+        save_checkpoint(tmp_path / "m.pt", build_network("cconv", 2))
+    assert list(tmp_path.iterdir()) == []

@@ -25,8 +25,8 @@ test training, ``simulate`` and ``evaluate`` use to refuse data the model is not
 from __future__ import annotations
 
 import hashlib
+import io
 import math
-import os
 import zipfile
 from pathlib import Path
 
@@ -59,15 +59,12 @@ def save_checkpoint(path, model: CorrectionNet, data: dict | None = None,
         "extra": dict(extra or {}),
     }
     payload["digest"] = digest(payload)
+    from ..outputs import write_bytes
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        torch.save(payload, tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    buf = io.BytesIO()
+    torch.save(payload, buf)  # in memory: a full disk is one error line, no torch traceback
+    return write_bytes(path, buf.getvalue())
 
 
 def digest(payload: dict) -> str:

@@ -36,6 +36,7 @@ import numpy as np
 import torch
 
 from ..configs import save_toml
+from ..outputs import write_text
 from ..data.dataset import Dataset
 from ..errors import DcdcError
 from ..model.checkpoint import check_compatible, read_checkpoint, save_checkpoint
@@ -167,9 +168,7 @@ class MetricsLog:
         w = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
-        tmp = self.path.with_name(f".{self.path.name}.tmp-{os.getpid()}")
-        tmp.write_text(buf.getvalue())
-        os.replace(tmp, self.path)
+        write_text(self.path, buf.getvalue())
         self.file = open(self.path, "a", newline="")
         self.writer = csv.DictWriter(self.file, fieldnames=columns, extrasaction="ignore")
         self.tb = None
