@@ -18,8 +18,9 @@ heavy-below and layers like SPH's (:func:`verdict`); a model that fails it fails
 where the scene's particle radius or frame Δt is not the one it was trained for.
 ``--settle T`` starts the network from the SPH state at T s instead of the lattice start
 (the 3-D networks burst from a deep lattice column, docs/models.md). The output folder is
-checked before the simulation and written whole at the end (an existing one only with
-``--overwrite``).
+checked before the simulation (an existing non-empty one only with ``--overwrite``, which
+empties it) and each result is written as soon as it exists, the SPH trajectory first; the
+report ``demo.txt`` comes last, so a folder without it holds an unfinished demo.
 """
 from __future__ import annotations
 
@@ -98,7 +99,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     from .data import interrupt
     from .data.dataset import Dataset
     from .data.jobs import code_version, run_job, scene_jobs
-    from .outputs import atomic_dir, check_dir
+    from .outputs import check_dir, write_text
     from .render.export import write_points
     from .model.checkpoint import check_compatible, load_checkpoint
     from .render import animate, snapshot_strip
@@ -131,47 +132,61 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         if start >= n_frames:
             raise DcdcError(f"--settle {settle:g} s is not before the end of the run "
                             f"({n_frames * sc.frame_dt:g} s)")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    neural = None
+    if net is not None:  # the model must fit the scene's particles: checked before any work
+        try:
+            check_compatible(net, radius=float(sc.data["radius"]), frame_dt=sc.frame_dt,
+                             what=f"scene {sc.name}")
+        except DcdcError as e:
+            if not auto:
+                raise
+            neural, net = f"no learned model: {e} (--model M runs another)", None
     click.echo(f"simulating {job.name} ({n_frames} frames of {sc.frame_dt} s) with the SPH solver")
-    # every output goes into a temporary directory renamed into place at the end: an
-    # interrupted demo leaves the previous run's folder as it was, never a mixture
-    with interrupt.handling(), atomic_dir(out, overwrite=overwrite) as tmp:
+    # each result is written as soon as it exists (an interrupted demo keeps the SPH run);
+    # demo.txt, the report, comes last: a folder without it is an unfinished demo
+    fresh_dir(out, overwrite)
+    report: list[str] = []
+
+    def wrote(name):
+        click.echo(f"wrote {out / name}")
+
+    with interrupt.handling():
         with tqdm(total=n_frames, unit="frame") as bar:
-            rec = run_job(job, tmp, progress=bar.update, code_version=code_version())
+            rec = run_job(job, out, progress=bar.update, code_version=code_version())
         if rec["status"] != "ok":
             raise SimulationDiverged(f"{job.name}: {rec.get('error', 'failed')}")
-        traj = Dataset(tmp)[job.name]
+        traj = Dataset(out)[job.name]
         names = [f"{job.name}.h5", f"{job.name}.png", f"{job.name}.gif", f"{job.name}_final.ply"]
-        snapshot_strip(traj, tmp / names[1], title=f"{job.name}: dcdc SPH")
+        wrote(names[0])
+        snapshot_strip(traj, out / names[1], title=f"{job.name}: dcdc SPH")
+        wrote(names[1])
         interrupt.check()
-        animate(traj, tmp / names[2])
+        animate(traj, out / names[2])
+        wrote(names[2])
         interrupt.check()
-        write_points(tmp / names[3], traj.position[-1],
+        write_points(out / names[3], traj.position[-1],
                      {"velocity": traj.velocity[-1], "phase": traj.phase, "density": traj.density})
+        wrote(names[3])
         rows0, rows1 = stratification(traj, 0), stratification(traj, -1)
         ok = order_ok(traj)
-        neural, neural_fail = None, None
+        report += [f"{rec['particles']} fluid + {rec['walls']} wall particles, "
+                   f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated",
+                   f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}"]
+        report += [f"{name:<12}{rho:>10g}{y0:>16.3f}{y1:>14.3f}"
+                   for (name, rho, y0), (_, _, y1) in zip(rows0, rows1)]
+        report.append(f"final order heavy-below: {'yes' if ok else 'NO'}")
+        neural_fail = None
         if net is not None:
-            try:
-                check_compatible(net, radius=traj.radius, frame_dt=sc.frame_dt,
-                                 what=f"scene {sc.name}")
-            except DcdcError as e:
-                if not auto:
-                    raise
-                neural, net = f"no learned model: {e} (--model M runs another)", None
-        if net is not None:
-            neural, neural_fail = _neural_beside(net, model_path, sc, traj, n_frames, tmp,
+            before = len(names)
+            neural, neural_fail = _neural_beside(net, model_path, sc, traj, n_frames, out,
                                                  names, start, contact)
-    click.echo(f"{rec['particles']} fluid + {rec['walls']} wall particles, "
-               f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated")
-    click.echo(f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}")
-    for (name, rho, y0), (_, _, y1) in zip(rows0, rows1):
-        click.echo(f"{name:<12}{rho:>10g}{y0:>16.3f}{y1:>14.3f}")
-    click.echo(f"final order heavy-below: {'yes' if ok else 'NO'}")
-    if neural is not None:
-        click.echo(neural)
-    for name in names:
-        click.echo(f"wrote {out / name}")
+            for name in names[before:]:
+                wrote(name)
+        if neural is not None:
+            report.append(neural)
+        write_text(out / "demo.txt", "\n".join(report) + "\n")
+    click.echo("\n".join(report))
+    wrote("demo.txt")
     if not ok:
         heights = ", ".join(f"{n} {y:.3f} m" for n, _, y in rows1)
         raise DcdcError(f"final phase order check failed: median heights (lightest first) {heights} "
@@ -179,6 +194,17 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     if neural_fail is not None:
         raise DcdcError(f"the learned model {model_path} fails the demo's verdict against "
                         f"SPH: {neural_fail}")
+
+
+def fresh_dir(out, overwrite: bool) -> None:
+    """Make the output folder ``out`` (already checked by :func:`dcdc.outputs.check_dir`)
+    empty: with ``overwrite`` an earlier demo's files are removed first, so no old file is
+    mistaken for one of this run."""
+    import shutil
+
+    if overwrite and out.is_dir():
+        shutil.rmtree(out)
+    out.mkdir(parents=True, exist_ok=True)
 
 
 def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,

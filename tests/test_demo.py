@@ -6,6 +6,7 @@ import sys
 import numpy as np
 
 from dcdc.data.dataset import Dataset, is_complete
+from dcdc.errors import DcdcError
 from dcdc.demo import default_resolution, order_ok, stratification
 
 
@@ -29,8 +30,9 @@ def test_demo_writes_complete_outputs(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "cocktail_2d_res2.gif", "cocktail_2d_res2.h5", "cocktail_2d_res2.png",
         "cocktail_2d_res2_dcdc.h5", "cocktail_2d_res2_dcdc_compare.gif",
-        "cocktail_2d_res2_dcdc_compare.png", "cocktail_2d_res2_final.ply"]
+        "cocktail_2d_res2_dcdc_compare.png", "cocktail_2d_res2_final.ply", "demo.txt"]
     assert "learned model dcdc2d: 5 of 5 steps" in r.stdout
+    assert "final order heavy-below: NO" in (tmp_path / "demo.txt").read_text()
 
 
 def test_demo_bad_scene_is_one_line_error(tmp_path):
@@ -145,7 +147,7 @@ def test_demo_model_none_and_a_scene_the_shipped_model_does_not_fit(tmp_path, ca
     code, stdout, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
                                    "--model", "none", "--out", out], capsys)
     assert code == 0 and "learned model" not in stdout
-    assert sorted(p.suffix for p in out.iterdir()) == [".gif", ".h5", ".ply", ".png"]
+    assert sorted(p.suffix for p in out.iterdir()) == [".gif", ".h5", ".ply", ".png", ".txt"]
     text = scene_jobs(["lock_exchange"], dim=2)[0].text()
     scene = tmp_path / "fine.toml"
     scene.write_text(text.replace('dim = 3', 'dim = 3\nradius = 0.02'))
@@ -158,6 +160,33 @@ def test_demo_model_none_and_a_scene_the_shipped_model_does_not_fit(tmp_path, ca
                                 "--model", "dcdc2d", "--out", tmp_path / "strict"], capsys)
     assert code == 2 and "particle radius" in err and "Traceback" not in err
     assert not (tmp_path / "strict").exists()
+
+
+def test_demo_keeps_the_sph_run_when_the_network_fails_and_overwrite_empties(tmp_path, capsys,
+                                                                            monkeypatch):
+    """Each result is written when it exists: a failure in the learned part leaves the SPH
+    trajectory and pictures but no demo.txt (the mark of a finished demo); --overwrite
+    empties the folder first, so no file of an earlier run stays."""
+    from helpers import dcdc_output
+
+    import dcdc.demo as demo
+
+    def broken(*a, **k):
+        raise DcdcError("the network broke")
+    monkeypatch.setattr(demo, "_neural_beside", broken)
+    out = tmp_path / "d"
+    code, stdout, err = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
+                                     "--out", out], capsys)
+    assert code == 2 and "the network broke" in err
+    assert is_complete(out / "lock_exchange_2d.h5") and (out / "lock_exchange_2d.png").is_file()
+    assert not (out / "demo.txt").exists() and f"wrote {out / 'lock_exchange_2d.h5'}" in stdout
+    (out / "stale.txt").write_text("an earlier run")
+    code, _, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
+                              "--model", "none", "--out", out], capsys)
+    assert code == 2  # without --overwrite a non-empty folder is refused
+    code, _, _ = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
+                              "--model", "none", "--overwrite", "--out", out], capsys)
+    assert code == 0 and not (out / "stale.txt").exists() and (out / "demo.txt").is_file()
 
 
 def test_demo_verdict_names_what_fails():
