@@ -45,6 +45,7 @@ def test_load_scene_errors_are_one_line():
         dcdc.load_scene("no_such_scene")
 
 
+@pytest.mark.slow
 def test_docs_example_runs(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     ns: dict = {}

@@ -231,6 +231,7 @@ def test_export_overwrite_replaces_the_whole_folder(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ damaged inputs
+@pytest.mark.slow
 def test_garbage_mesh_file(tmp_path, capsys):
     (tmp_path / "pillar.obj").write_bytes(np.random.default_rng(0).bytes(3000))
     shutil.copy(ROOT / "examples/my_scene.toml", tmp_path / "s.toml")

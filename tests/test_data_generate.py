@@ -107,6 +107,7 @@ def test_shards_partition_the_jobs(tmp_path):
         generate(jobs, tmp_path / "x", shard="3/3", simulator="ballistic", progress=False)
 
 
+@pytest.mark.slow
 def test_kill_mid_run_then_resume(tmp_path):
     """SIGKILL a real `dcdc generate` process mid-run: nothing half-written reads as done,
     and re-running the same command finishes the rest without redoing finished work."""
@@ -153,6 +154,7 @@ def test_corrupt_file_is_one_line_error(ballistic, tmp_path):
     assert r.returncode == 2 and r.stderr.startswith("error:")
 
 
+@pytest.mark.slow
 def test_cli_info_and_lagrangebench_export(ballistic, tmp_path):
     r = cli("dataset", "info", str(ballistic), "--list")
     assert r.returncode == 0 and "3 finished" in r.stdout and "random_2_2d" in r.stdout
@@ -187,6 +189,7 @@ def test_sample_dataset_in_git_reads():
     assert ratios and min(ratios) >= 10 - 1e-3  # held out: beyond the training range
 
 
+@pytest.mark.slow
 def test_sph_end_to_end_tiny_scene(tmp_path):
     """The real solver through `dcdc generate` on a tiny 2-D two-phase scene."""
     scene = tmp_path / "tiny.toml"
@@ -201,6 +204,7 @@ def test_sph_end_to_end_tiny_scene(tmp_path):
     assert (t.position[-1, :, 1] < t.position[0, :, 1] + 0.2).all() and np.isfinite(v).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", builtin_names())
 def test_builtin_runs_in_sph_2d(name, tmp_path):
     """Every built-in scene runs in the SPH solver (2-D, reduced resolution, a few frames)."""
@@ -211,6 +215,7 @@ def test_builtin_runs_in_sph_2d(name, tmp_path):
     assert t.n_frames == 6 and np.isfinite(t.position).all()
 
 
+@pytest.mark.slow
 def test_parallel_workers_match_serial(ballistic, tmp_path):
     jobs = random_jobs(3, 0, CFG2, duration=0.2, split="train")
     s = generate(jobs, tmp_path / "p", workers=2, simulator="ballistic", progress=False)
@@ -220,6 +225,7 @@ def test_parallel_workers_match_serial(ballistic, tmp_path):
         assert np.array_equal(t.position, ref[t.name].position)
 
 
+@pytest.mark.slow
 def test_scene_file_with_relative_mesh_and_emitter(tmp_path):
     r = cli("generate", "examples/my_scene.toml", "--dim", "2", "--duration", "0.1", "--simulator",
             "ballistic", "--no-progress", "-o", str(tmp_path))

@@ -1,5 +1,6 @@
 """benchmarks/make_deep_columns.py writes valid scenes of the kind it documents."""
 import importlib.util
+import pytest
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,7 @@ def test_deep_column_scenes_are_deep_layered_and_in_the_training_range(tmp_path)
         assert len(y) == len(levels) * round(box[0] / (2 * sy.radius)) * round(box[2] / (2 * sy.radius))
 
 
+@pytest.mark.slow
 def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
     _module().main([str(tmp_path), "12", "0", "glass"])  # seed 11 once left a layer empty
     files = sorted(tmp_path.glob("deep_glass_*.toml"))

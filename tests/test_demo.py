@@ -1,5 +1,6 @@
 """The README's main job: ``dcdc demo`` writes a complete trajectory, pictures and a PLY."""
 import json
+import pytest
 import subprocess
 import sys
 
@@ -10,6 +11,7 @@ from dcdc.errors import DcdcError
 from dcdc.demo import default_resolution, order_ok, stratification
 
 
+@pytest.mark.slow
 def test_demo_writes_complete_outputs(tmp_path):
     """0.1 s is too short for the cocktail (light oil starts at the bottom) to re-stratify:
     the outputs are written all the same (SPH and, by default, the shipped dcdc2d beside it),
@@ -35,6 +37,7 @@ def test_demo_writes_complete_outputs(tmp_path):
     assert "final order heavy-below: NO" in (tmp_path / "demo.txt").read_text()
 
 
+@pytest.mark.slow
 def test_demo_bad_scene_is_one_line_error(tmp_path):
     r = subprocess.run([sys.executable, "-m", "dcdc.cli", "demo", "--scene", "nope",
                         "--out", str(tmp_path)], capture_output=True, text=True)
@@ -67,6 +70,7 @@ def test_stratification_order():
     assert stratification(_Traj([0.1, 0.3, 1.0, 1.2]), 0)[0][2] == 0.2  # median height
 
 
+@pytest.mark.slow
 def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
     """dcdc demo --model: the learned model runs the same scene from the same start; its
     trajectory and the SPH-above-model strip are written, its numbers printed."""
@@ -108,6 +112,7 @@ def test_demo_refuses_a_model_of_another_dimension_before_simulating(tmp_path, c
     assert not (tmp_path / "d").exists()
 
 
+@pytest.mark.slow
 def test_demo_settle_hands_the_model_the_sph_state(tmp_path, capsys):
     """dcdc demo --model --settle T: the network starts from the SPH frame at T; its file
     repeats the SPH frames up to T, so both share frame times; misuse is a one-line error."""
@@ -136,6 +141,7 @@ def test_demo_settle_hands_the_model_the_sph_state(tmp_path, capsys):
         assert not (tmp_path / "bad").exists()
 
 
+@pytest.mark.slow
 def test_demo_model_none_and_a_scene_the_shipped_model_does_not_fit(tmp_path, capsys):
     """--model none runs SPH alone; the default model is skipped, with a note, on a scene
     whose particle radius is not the one it was trained for (an explicit --model fails)."""

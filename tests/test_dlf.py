@@ -155,6 +155,7 @@ def test_scene_system_samples_their_scene(small_scene):
         scene_system(bad)
 
 
+@pytest.mark.slow
 @needs_weights
 def test_pretrained_network_keeps_the_fluid_in_a_box(small_scene):
     """A short version of the 500-step example-scene check of docs/evaluation.md: the

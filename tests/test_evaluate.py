@@ -209,6 +209,7 @@ def test_evaluate_cli_members(ckpts, tmp_path, capsys):
         assert code == 2 and err.startswith("error:") and word in err and err.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_train_simulate_evaluate_end_to_end(tmp_path, capsys):
     """End to end: the tiny training config, then `simulate` and `evaluate` with its model."""
     from pathlib import Path

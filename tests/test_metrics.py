@@ -105,6 +105,7 @@ def test_position_and_nearest_error():
     assert np.isnan(M.position_error(np.full((2, 2), np.nan), true))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [100, 1000, 10_000])
 def test_wasserstein_distance_of_a_shifted_cloud_is_the_shift(n):
     rng = np.random.default_rng(0)

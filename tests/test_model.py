@@ -437,6 +437,7 @@ def _outputs_and_grads(net, x, v, rho, wx, wn, ctx):
     return dx.detach(), grads
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(NETWORKS))
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("mode", ["classes", "edges"])

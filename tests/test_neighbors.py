@@ -10,6 +10,7 @@ def _pairs(nb):
     return set(zip(nb.receivers().tolist(), nb.index.tolist()))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_self_search_matches_kdtree(dim, dtype):
@@ -74,6 +75,7 @@ def test_cell_grid_built_once_serves_moving_queries(dim):
     assert CellGrid(np.zeros((0, dim)), 0.1).search(q).n_edges == 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_one_pass_search_equals_two_pass_search(dim, dtype):

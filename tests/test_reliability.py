@@ -112,6 +112,7 @@ def _tmpfs_shell(folder: Path, script: str, size: str = "300k") -> subprocess.Co
         capture_output=True, text=True, env=env, timeout=300)
 
 
+@pytest.mark.slow
 def test_real_full_disk_generate(tmp_path):
     """A dataset larger than a 300 kB file system: HDF5 never writes to the disk itself, so
     the run ends in one error line (HDF5 writing in place crashes in its clean-up) and

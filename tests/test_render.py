@@ -259,6 +259,7 @@ def test_failed_render_leaves_nothing(tmp_path, traj3d, monkeypatch, name):
     assert list(tmp_path.iterdir()) == []  # neither the output nor a temporary
 
 
+@pytest.mark.slow
 def test_triangles_cover_their_area_with_perspective_correct_depth():
     from dcdc.render.splat import splat_triangles
     zbuf = np.full((64, 64), np.inf)

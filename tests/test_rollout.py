@@ -48,6 +48,7 @@ def ballistic(x, v, n):
     return x, v
 
 
+@pytest.mark.slow
 def test_ballistic_steps_and_emitter():
     x0 = np.array([[0.0, 1.0], [0.3, 1.2], [0.5, 1.5]])
     v0 = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, -1.0]])
@@ -153,6 +154,7 @@ def test_wall_contact_stops_a_particle_at_the_floor():
         3).position[:, 0])  # the other particle is untouched
 
 
+@pytest.mark.slow
 def test_wall_contact_never_catches_fluid_at_rest():
     # the lattice next to a wall, corners included, stays below the catch level (2-D, 3-D)
     from dcdc.evaluate.rollout import WallContact

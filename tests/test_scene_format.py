@@ -104,6 +104,7 @@ def test_overlap_inside_wall_and_outside_domain_are_reported():
         parse(out).realize()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cocktail", "canyon"])
 def test_stacked_fills_share_a_face_plane_once(name):
     """At resolution 0.5 a layer face of these scenes lies on a lattice plane that both
@@ -144,6 +145,7 @@ def test_example_scene_with_mesh_and_emitter():
     assert born.max() < e["stop"] and s3.birth.min() == 0
 
 
+@pytest.mark.slow
 def test_all_builtins_load_in_2d_and_3d():
     names = builtin_names()
     assert set(SHOWCASES) | {"dam_break", "double_dam_break", "rayleigh_taylor", "lock_exchange"} <= set(names)
@@ -185,6 +187,7 @@ def test_showcase_physics_setup():
     assert np.abs(c.v[:, 0]).min() > 0     # sloshing
 
 
+@pytest.mark.slow
 def test_random_scenes_reproducible_and_bounded():
     a, b = random_scene_text(5), random_scene_text(5)
     assert a == b and a != random_scene_text(6)
@@ -204,6 +207,7 @@ def test_random_scenes_reproducible_and_bounded():
     assert s3["dim"] == 3
 
 
+@pytest.mark.slow
 def test_cli_list_show_random(tmp_path):
     r = cli("scene", "list")
     assert r.returncode == 0 and "cocktail" in r.stdout and "canyon" in r.stdout

@@ -41,6 +41,7 @@ def run_sph(scene, resolution=1.0, duration=0.1):
 
 
 # ------------------------------------------------------------------ DeepLagrangianFluids
+@pytest.mark.slow
 @needs_dlf
 def test_dlf_example_imports_and_runs(tmp_path):
     """Their example scene: Box.obj becomes a mesh container, Fluid.obj a mesh block with
@@ -60,6 +61,7 @@ def test_dlf_example_imports_and_runs(tmp_path):
     assert small.n_fluid == 216
 
 
+@pytest.mark.slow
 def test_dlf_emitter_and_open_wall(tmp_path):
     """A fluid released at frames 0, 10, 20 is a mesh emitter (0, 0.2, 0.4 s); an open wall
     whose normals face the fluid (invert_normals) is a shell behind its faces."""

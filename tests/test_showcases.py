@@ -86,6 +86,7 @@ def test_hourglass_drains_the_heavy_phase():
     assert below >= 0.9, below
 
 
+@pytest.mark.slow
 def test_canyon_heavy_phase_collects_in_the_depressions():
     """The 2-D canyon section at the scene's resolution and duration (271 particles, 5 s):
     the heavy phase ends in the basins (pooled: fluid >= 3 rows deep above its floor, not a

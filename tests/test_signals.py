@@ -80,6 +80,7 @@ def _is_worker(pid):
 pytestmark = pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
 
 
+@pytest.mark.slow
 def test_sigkill_of_parent_stops_workers(tmp_path):
     out = tmp_path / "ds"
     p, workers = started_generate(out)
@@ -93,6 +94,7 @@ def test_sigkill_of_parent_stops_workers(tmp_path):
     assert len(Dataset(out)) == n  # every file there is a complete trajectory
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGTERM, 143, "terminated"),
                                              (signal.SIGINT, 130, "aborted")])
 def test_sigterm_and_ctrl_c_stop_cleanly_then_resume(tmp_path, sig, code, word):
@@ -116,6 +118,7 @@ def test_sigterm_and_ctrl_c_stop_cleanly_then_resume(tmp_path, sig, code, word):
     assert len(Dataset(out)) == N_JOBS
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_demo(tmp_path):
     """An interrupted `demo --overwrite` leaves the previous run's folder as it was."""
     out = tmp_path / "demo"

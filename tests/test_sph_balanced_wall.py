@@ -77,6 +77,7 @@ def test_balanced_field_is_a_gradient():
     np.testing.assert_allclose(phi[far], psi[far], atol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_offset_and_amplitude_solve_both_conditions(dim):
     """balanced_wall's δ and A satisfy ψ_f + Φ = 1 and ∂Φ/∂z = -2 ∂ψ_f/∂z at the first row,
@@ -96,6 +97,7 @@ def test_offset_and_amplitude_solve_both_conditions(dim):
         assert (phi(z1 + d) - phi(z1 - d)) / (2 * d) == pytest.approx(-2.0 * slope_f, rel=0.02)
 
 
+@pytest.mark.slow
 def test_floor_row_stays_near_its_lattice_height_without_damping():
     """A 2-D tank at rest without XSPH and artificial viscosity: after 0.5 s the floor row
     sits at ≥ 0.9 r with the balanced wall (the plain map: it sinks to ~0.35 r)."""

@@ -22,6 +22,7 @@ def _lattice(dim, n=9, r=0.025):
     return x, inner, nbh, V0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_strain_rate_of_linear_flows(dim):
     """|S| = sqrt(2 S:S): γ for a simple shear u = γ y; 0 for a uniform flow and for a rigid

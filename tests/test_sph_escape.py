@@ -168,6 +168,7 @@ def cli(*args):
                           text=True, cwd=ROOT, env=env)
 
 
+@pytest.mark.slow
 def test_generate_keeps_the_trajectory_and_its_deaths(removed_run, tmp_path):
     sim, xs = removed_run
     f = tmp_path / "ledge.toml"

@@ -1,5 +1,6 @@
 """The lock-exchange validation case (``dcdc validate-sph --case lock_exchange``)."""
 import math
+import pytest
 
 import numpy as np
 
@@ -53,6 +54,7 @@ def test_extrapolation_to_zero_radius():
     assert abs(a - 0.5) < 1e-9 and math.isnan(se)
 
 
+@pytest.mark.slow
 def test_quick_lock_exchange_runs():
     """The quick 2-D variant (r = 10 mm and 5 mm; 135-162 s on 2 cores) returns finite
     Froude numbers and its checks, run with the closed-container settings (the hydrostatic

@@ -108,6 +108,7 @@ def cli(*args):
     return subprocess.run([sys.executable, "-m", "dcdc.cli", *args], capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_cli_bad_options_are_one_line_errors():
     r = cli("benchmark", "sph", "--ratios", "ten")
     assert r.returncode == 2
@@ -120,6 +121,7 @@ def test_cli_bad_options_are_one_line_errors():
         assert len(r.stderr.strip().splitlines()) == 1 and "sph" in r.stderr, (bad, r.stderr)
 
 
+@pytest.mark.slow
 def test_benchmark_sph_small_run_writes_median_of_repeats(tmp_path):
     out = tmp_path / "b.json"
     r = cli("benchmark", "sph", "--dim", "2", "--particles", "200", "--duration", "0.04",

@@ -86,6 +86,7 @@ def _csf_force(x, phase, nbh, h, V0, sigma, dim):
     return (rho0 * V0)[:, None] * a
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_csf_force_on_a_lattice_drop_is_young_laplace_and_linear_in_sigma(dim):
     """The capillary force summed over a drop cut from the rest lattice (both sides of the
@@ -104,6 +105,7 @@ def test_csf_force_on_a_lattice_drop_is_young_laplace_and_linear_in_sigma(dim):
     assert np.allclose(F2, 2 * F1, rtol=1e-12, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_csf_conserves_momentum_in_a_moving_emulsion():
     """Two interleaved phases of unlike densities, no walls, no gravity: Σ m v stays 0."""
     from dcdc.geometry import fill_box
@@ -140,6 +142,7 @@ def test_the_cocktail_scene_pins_the_pairwise_model():
     assert cfg.interfacial_model == "pairwise" and cfg.interfacial_tension
 
 
+@pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="csf without a background pressure: the interface band "
                    "is under tension and clumps, Δp ≈ 0.48 σ/R; with background_pressure = σ/h "
                    "0.83 (2-D quick), 0.79 (2-D full), 0.82 (3-D quick, but max radius 1.16 R): "
@@ -161,6 +164,7 @@ def _closed_box(dim, r, boundary):
     return sy, W
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_uniform_background_pressure_exerts_no_force_on_a_uniform_lattice(dim):
     """a_i = -(2 p_b/ρ0) ∇ψ_i: zero on the rest lattice, walls included (they carry p_b
@@ -219,6 +223,7 @@ def test_background_pressure_conserves_momentum_and_is_off_by_default():
     assert np.array_equal(a_sy.x, b_sy.x) and np.array_equal(a_sy.v, b_sy.v)
 
 
+@pytest.mark.slow
 def test_background_pressure_lifts_the_csf_laplace_jump():
     """p_b = σ/h (the band's peak tension σ|∇c| on the rest lattice, 1.01 σ/h) keeps the
     band from clumping: 2-D quick, Δp 0.48 -> 0.83 σ/R (measured), still round; not yet
@@ -243,6 +248,7 @@ def _curvature_fields(dim, densities=(1000.0, 1000.0), sigma=1.0):
     return x, dist, phase, grad, kappa, (rho0 * V0)[:, None] * a, a, R
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_curvature_of_a_lattice_drop_is_its_radius_and_the_force_young_laplace(dim):
     """On a drop cut from the rest lattice: ∇c points out of the drop (into the ambient,
@@ -273,6 +279,7 @@ def test_curvature_force_is_per_volume_and_linear_in_sigma():
     assert np.abs(F1).max() > 0 and np.allclose(F3, 3 * F1, rtol=1e-12, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_laplace_quick_2d_curvature_is_young_laplace():
     """The default model's validation row (docs/sph.md, "Interfacial tension"): measured
     Δp 0.93 σ/R, max radius 1.01 R."""
@@ -314,6 +321,7 @@ def _layers(dim, size=None):
                        name="layers", closed=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_flat_interface_meeting_walls_feels_no_curvature_force(dim):
     """Two layers at rest in a closed tank: the interface is flat, so the capillary force is

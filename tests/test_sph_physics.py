@@ -58,6 +58,7 @@ def test_no_tunnelling_through_a_wall_at_5_m_s():
     assert np.ptp(sy.x[:, 1]) > 3 * 0.3  # ... into a spread along the wall
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_hydrostatic_column_and_density(dim):
     from dcdc.sph.cases import hydrostatic
@@ -88,6 +89,7 @@ def test_inactive_particles_wait_for_their_birth():
     assert sim.stats["active"] == n + len(drop)
 
 
+@pytest.mark.slow
 def test_wcsph_cross_check_holds_a_column():
     size = [0.3, 0.25]
     sy = tank_system(2, 0.025, size, [(np.zeros(3), size + [0], lambda p: np.zeros(len(p), int))],
@@ -101,6 +103,7 @@ def test_wcsph_cross_check_holds_a_column():
     assert sim.stats["max_speed"] < 1.0
 
 
+@pytest.mark.slow
 def test_surface_tension_pulls_a_square_drop_round_and_conserves_momentum():
     """Akinci cohesion (optional surface tension): a square 2-D drop at rest in zero gravity
     loses its corners (the farthest particle moves inwards) with momentum conserved."""

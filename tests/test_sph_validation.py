@@ -48,6 +48,7 @@ def test_trapped_light_fluid_is_counted():
     assert frac == 3 / (sy.phase == 1).sum() and frac > 0.002
 
 
+@pytest.mark.slow
 def test_cli_table_and_json(tmp_path):
     out = tmp_path / "v.json"
     r = subprocess.run([sys.executable, "-m", "dcdc.cli", "validate-sph", "--quick", "--case",

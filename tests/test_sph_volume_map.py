@@ -40,6 +40,7 @@ def test_rest_lattice_keeps_unit_density_at_a_flat_floor(dim):
     assert np.abs(psi[floor] - 1.0).max() < 3e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim", [2, 3])
 def test_no_ripple_along_a_flat_wall(dim):
     """Along the floor, the tangential gradient of Ψ is < 0.5 % of its normal gradient for

@@ -230,6 +230,7 @@ def test_scene_mean_counts_each_scene_once():
 
 
 # ---------------------------------------------------------------------- a run
+@pytest.mark.slow
 def test_tiny_run_writes_logs_checkpoints_and_a_loadable_model(tmp_path):
     run = tmp_path / "run"
     path = train(tiny("optim.steps=6", "log.checkpoint_every=3", "eval.every=3",
@@ -256,6 +257,7 @@ def test_tiny_run_writes_logs_checkpoints_and_a_loadable_model(tmp_path):
     assert not torch.allclose(init.dense0.weight, model.dense0.weight)
 
 
+@pytest.mark.slow
 def test_run_directory_and_data_mismatches_are_refused(tmp_path):
     run = tmp_path / "run"
     train(tiny("optim.steps=2"), run, echo=lambda *_: None)
@@ -324,6 +326,7 @@ def test_a_non_finite_loss_stops_with_one_line(tmp_path, monkeypatch):
         train(tiny("optim.steps=2"), tmp_path / "nan", echo=lambda *_: None)
 
 
+@pytest.mark.slow
 def test_resume_skips_a_damaged_checkpoint(tmp_path):
     run = tmp_path / "run"
     cfg = tiny("optim.steps=4", "log.checkpoint_every=2", "eval.every=0")
@@ -339,6 +342,7 @@ def test_resume_skips_a_damaged_checkpoint(tmp_path):
     assert load_checkpoint(checkpoints(run)[0])[1]["extra"]["step"] == 4  # rewritten
 
 
+@pytest.mark.slow
 def test_fine_tuning_starts_from_the_given_weights(tmp_path):
     first = train(tiny("optim.steps=2"), tmp_path / "a", echo=lambda *_: None)
     msgs = []

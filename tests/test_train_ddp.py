@@ -14,6 +14,7 @@ from test_train import PATHS, TINY, rows, tiny
 SETTINGS = ["optim.steps=4", "log.checkpoint_every=2", "eval.every=2", "data.batch_scenes=2"]
 
 
+@pytest.mark.slow
 def test_torchrun_two_ranks_equals_one_process(tmp_path):
     torchrun = Path(sys.executable).with_name("torchrun")
     if not torchrun.exists():

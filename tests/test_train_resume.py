@@ -13,6 +13,7 @@ from test_train import PATHS, TINY, rows, tiny
 SETTINGS = ["optim.steps=40", "log.checkpoint_every=4", "eval.every=0"]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
 def test_sigkilled_run_resumes_from_its_last_checkpoint(tmp_path):
     run = tmp_path / "run"

@@ -93,6 +93,7 @@ def _load(page, tmp_path, hash=""):
     raise AssertionError(f"the page never drew: {attrs}, {r.stdout[:300]!r}, {r.stderr[-500:]!r}")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium not installed (apt-get install chromium)")
 def test_page_plays_in_headless_chromium(tmp_path):
     out = tmp_path / "v.html"
@@ -153,6 +154,7 @@ def test_colouring_switches_and_scale_bar_in_headless_chromium(tmp_path):
     assert abs((x1 - x0) - walls) < 25 + 2 * traj.radius * pxm   # probes 10 px apart, sprites
 
 
+@pytest.mark.slow
 def test_mesh_walls_are_sent_wound_towards_the_fluid(tmp_path):
     from test_export import MESH_SCENE
 
