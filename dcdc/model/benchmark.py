@@ -182,6 +182,76 @@ def run_cconv(particles: int = 30000, channels: int = 64, kernel_size: int = 4,
             "rows": rows}
 
 
+def run_fused_ab(sizes=(4000, 10000), widths=(("default", (32, 64, 64)), ("dcdc3d", (16, 32, 32))),
+                 repeat: int = 5, echo=None) -> dict:
+    """The fused CConv kernels against the unfused operator, alternated in this process.
+
+    A 3-D ``dcdc`` network (float32) on :func:`tank` states; per size and widths, ``repeat``
+    rounds each time the unfused ("numba") and the fused backend back to back: the
+    convolutions of one step (forward, no gradients, the step's geometry prepared once) and a
+    training iteration (forward + backward of a position loss, geometry included). Timings
+    are wall-clock with more than one thread, CPU time with one (robust on a loaded machine);
+    the ratio is the median over rounds of fused / unfused."""
+    import numba
+
+    from .networks import build_network
+
+    threads = torch.get_num_threads()
+    clock = time.perf_counter if max(threads, numba.get_num_threads()) > 1 else time.process_time
+    rows = []
+    for label, ch in widths:
+        torch.manual_seed(0)
+        net = build_network("dcdc", 3, channels=list(ch))
+        for n in sizes:
+            x, v, rho, wx, wn = tank(n)
+            ctx = net.prepare(x, rho, wx)
+
+            def fwd():
+                with torch.no_grad():
+                    net(x, v, rho, wx, wn, ctx=ctx)
+
+            def train():
+                net.zero_grad(set_to_none=True)
+                vt = torch.tensor(v, dtype=torch.float32, requires_grad=True)
+                net(x, vt, rho, wx, wn).square().sum().backward()
+
+            times = {}
+            for backend in ("numba", "fused", "numba", "fused"):  # warm-up (compilation)
+                net.set_backend(backend)
+                fwd()
+                train()
+            for _ in range(repeat):
+                for backend in ("numba", "fused"):
+                    net.set_backend(backend)
+                    for kind, fn in (("fwd", fwd), ("train", train)):
+                        t0, c0 = clock(), time.process_time()
+                        fn()
+                        times.setdefault((kind, backend), []).append(clock() - t0)
+                        times.setdefault((kind + "_cpu", backend), []).append(
+                            time.process_time() - c0)
+            net.set_backend("auto")
+            row = {"widths": label, "channels": list(ch), "particles": len(x), "walls": len(wx),
+                   "threads": threads}
+            for kind in ("fwd", "train"):
+                a = np.array(times[(kind, "numba")])
+                b = np.array(times[(kind, "fused")])
+                row[f"{kind}_unfused_ms"] = float(np.median(a)) * 1e3
+                row[f"{kind}_fused_ms"] = float(np.median(b)) * 1e3
+                row[f"{kind}_ratio"] = float(np.median(b / a))
+                row[f"{kind}_ratio_range"] = [float((b / a).min()), float((b / a).max())]
+                a = np.array(times[(kind + "_cpu", "numba")])
+                b = np.array(times[(kind + "_cpu", "fused")])
+                row[f"{kind}_cpu_ratio"] = float(np.median(b / a))  # CPU time of all threads
+            rows.append(row)
+            if echo:
+                echo(row)
+    return {"benchmark": "cconv fused A/B", "machine": machine_info(), "rows": rows,
+            "clock": "wall" if clock is time.perf_counter else "process CPU time",
+            "note": "ratio = median over alternated rounds of fused / unfused time; fwd = the "
+                    "convolutions of one step without gradients (geometry prepared once), "
+                    "train = forward + backward of one step with its search and geometry"}
+
+
 @click.command("cconv")
 @click.option("--particles", default=30000, show_default=True, help="lattice particles (≈)")
 @click.option("--channels", default=64, show_default=True, help="C_in = C_out")
@@ -193,8 +263,28 @@ def run_cconv(particles: int = 30000, channels: int = 64, kernel_size: int = 4,
               help="also time the pure-torch (sparse CSR) backend used on CUDA")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write results here (e.g. benchmarks/cconv.json)")
-def cconv_command(particles, channels, kernel_size, repeat, bf16, torch_backend, json_path):
+@click.option("--fused-ab", "fused_ab", default=None, metavar="SIZES",
+              help="instead: the fused kernels against the unfused operator, alternated, in "
+                   "3-D dcdc networks of the default and the dcdc3d widths at these particle "
+                   "counts (e.g. 4000,10000)")
+def cconv_command(particles, channels, kernel_size, repeat, bf16, torch_backend, json_path,
+                  fused_ab):
     """One CConv layer: time, memory, GFLOP/s vs the GEMM-only bound."""
+    if fused_ab:
+        sizes = tuple(int(s) for s in fused_ab.split(","))
+
+        def echo(r):
+            click.echo(f"{r['widths']:8s} {r['particles']:6d} particles, {r['threads']} threads: "
+                       f"step convolutions fused/unfused {r['fwd_ratio']:.2f} "
+                       f"({r['fwd_fused_ms']:.0f} / {r['fwd_unfused_ms']:.0f} ms), training "
+                       f"iteration {r['train_ratio']:.2f} ({r['train_fused_ms']:.0f} / "
+                       f"{r['train_unfused_ms']:.0f} ms); CPU time ratios {r['fwd_cpu_ratio']:.2f}, "
+                       f"{r['train_cpu_ratio']:.2f}")
+
+        res = run_fused_ab(sizes, repeat=repeat, echo=echo)
+        click.echo(f"(medians of {repeat} alternated rounds, {res['clock']})")
+        _write_json(json_path, res)
+        return
     backends = ("numba", "torch") if torch_backend else ("numba",)
     res = run_cconv(particles, channels, kernel_size, repeat, bf16, backends)
     s = res["setup"]

@@ -27,8 +27,13 @@ list), applied to grad_out:
 processed in cache-sized chunks through one reused buffer per call. No atomics anywhere:
 every kernel owns its output rows, so results are deterministic.
 
-Two backends compute the same thing: ``"numba"`` (parallel CPU kernels, default on CPU) and
-``"torch"`` (sparse CSR matrix products, runs on any device incl. CUDA; tested on CPU).
+Three backends compute the same thing: ``"fused"`` (default on CPU where torch links MKL:
+:mod:`.fused` spreads each block of rows in a thread's cache and hands it to a
+single-threaded GEMM inside the same numba parallel region, forward and sender-side
+backward), ``"numba"`` (the chunks above, spread by numba then multiplied by torch; the
+reference the fused kernels are tested against) and ``"torch"`` (sparse CSR matrix products,
+runs on any device incl. CUDA; tested on CPU). ``DCDC_FUSED_CCONV=0`` turns the fused
+kernels off.
 
 Senders may be *virtual*: the density-conditioned layer (``modulation.py``) feeds one
 modulated feature row per (receiver density, sender) pair or per edge; the geometry then
@@ -51,7 +56,9 @@ import torch
 
 from ..errors import DcdcError
 from ..neighbors import Neighbors, radius_search
+from . import fused as _fused
 
+DEFAULT_CPU_BACKEND = "fused" if _fused.AVAILABLE else "numba"  # what "auto" means on a CPU
 CHUNK_BYTES = 8 << 20  # working-buffer size per chunk of rows (fits the L2/L3 caches well)
 
 
@@ -524,6 +531,68 @@ def _backward_numba(F, W, gout, geom: ConvGeometry, need_f: bool, need_w: bool):
     return gF, gW
 
 
+def _fused_buffers(dtype: torch.dtype):
+    """[parts, rows, width] scratch for :mod:`.fused`, from the same per-thread pool."""
+    def get(parts, rows, width):
+        return _buffer(parts * rows, width, dtype, slot=2).numpy().reshape(parts, rows, width)
+    return get
+
+
+def _fused_applies(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dtype) -> bool:
+    """The fused kernels cover the spread form in float32/float64 GEMMs; the collect form
+    (C_out ≤ C_in / 4), bf16 GEMMs and machines without torch's MKL keep the unfused path."""
+    ncell, cin, cout = W.shape
+    return (_fused.AVAILABLE and gemm_dtype is None and F.dtype in (torch.float32, torch.float64)
+            and 4 * cout * geom.n_send > cin * geom.n_recv)
+
+
+def _forward_fused(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry) -> torch.Tensor:
+    """Forward pass with :func:`.fused.fused_rows`: out = spread(F) @ W_flat, blockwise."""
+    ncell, cin, cout = W.shape
+    Wf = W.detach().reshape(ncell * cin, cout).contiguous().numpy()
+    out, _ = _fused.fused_rows(geom.row_splits, geom.src, geom.cells, geom.weights_as(F.dtype),
+                               F.detach().contiguous().numpy(), ncell, Wf, None,
+                               _fused_buffers(F.dtype))
+    return torch.from_numpy(out)
+
+
+def _backward_fused(F, W, gout, geom: ConvGeometry, need_f: bool, need_w: bool):
+    """Sender side, fused: B = spread_by_sender(g) per block; gF = B W'ᵀ; gW' = Σ Fᵀ B."""
+    ncell, cin, cout = W.shape
+    splits, dst, tcells, tw = geom.transposed(F.dtype)
+    Wm = W.detach().permute(0, 2, 1).reshape(ncell * cout, cin).contiguous().numpy()  # W'ᵀ
+    gF, gW2 = _fused.fused_rows(splits, dst, tcells, tw, gout.contiguous().numpy(), ncell,
+                                Wm if need_f else None,
+                                F.detach().contiguous().numpy() if need_w else None,
+                                _fused_buffers(F.dtype))
+    gW = (torch.from_numpy(gW2).reshape(cin, ncell, cout).permute(1, 0, 2) if need_w else None)
+    return (torch.from_numpy(gF) if need_f else None), gW
+
+
+class _FusedCConv(torch.autograd.Function):
+    """The numba operator with the fused spread → GEMM kernels where they apply."""
+
+    @staticmethod
+    def forward(ctx, F, W, geom, gemm_dtype):
+        ctx.save_for_backward(F, W)
+        ctx.geom = geom
+        if _fused_applies(F, W, geom, gemm_dtype):
+            return _forward_fused(F, W, geom)
+        return _forward_numba(F, W, geom, gemm_dtype)
+
+    @staticmethod
+    def backward(ctx, gout):
+        F, W = ctx.saved_tensors
+        geom = ctx.geom
+        need_f, need_w = ctx.needs_input_grad[0], ctx.needs_input_grad[1]
+        if (_fused.AVAILABLE and not geom.injective
+                and F.dtype in (torch.float32, torch.float64)):
+            gF, gW = _backward_fused(F, W, gout.to(F.dtype), geom, need_f, need_w)
+        else:
+            gF, gW = _backward_numba(F, W, gout, geom, need_f, need_w)
+        return gF, gW, None, None
+
+
 class _NumbaCConv(torch.autograd.Function):
     @staticmethod
     def forward(ctx, F, W, geom, gemm_dtype):
@@ -614,7 +683,10 @@ def cconv(features: torch.Tensor, weight: torch.Tensor, geom: ConvGeometry,
         features: [geom.n_send, Cin] sender (or virtual sender) features.
         weight: [K^d, Cin, Cout] filter, cell index x-fastest (c = x + K·y + K²·z).
         geom: from :func:`build_geometry` (possibly ``with_sources``).
-        backend: "numba" (CPU), "torch" (any device) or "auto" (numba on CPU).
+        backend: "fused" (CPU: :mod:`.fused`, the spread rows fed to the GEMM block by block
+            in one parallel region), "numba" (CPU: spread chunk, then a torch GEMM; the
+            reference the fused kernels are tested against), "torch" (any device) or "auto"
+            (:data:`DEFAULT_CPU_BACKEND` on CPU, torch elsewhere).
         gemm_dtype: e.g. ``torch.bfloat16`` to run the GEMMs in bf16 (AMX) — inference only.
     """
     if features.shape[0] != geom.n_send:
@@ -623,15 +695,16 @@ def cconv(features: torch.Tensor, weight: torch.Tensor, geom: ConvGeometry,
         raise DcdcError(f"cconv: filter {tuple(weight.shape)} does not fit {geom.n_cells} cells "
                         f"× {features.shape[1]} channels")
     if backend == "auto":
-        backend = "numba" if features.device.type == "cpu" else "torch"
-    if backend == "numba":
+        backend = DEFAULT_CPU_BACKEND if features.device.type == "cpu" else "torch"
+    if backend in ("numba", "fused"):
         if gemm_dtype is not None and torch.is_grad_enabled() and (
                 features.requires_grad or weight.requires_grad):
             gemm_dtype = None  # reduced-precision GEMMs are for inference only
-        return _NumbaCConv.apply(features, weight, geom, gemm_dtype)
+        op = _FusedCConv if backend == "fused" else _NumbaCConv
+        return op.apply(features, weight, geom, gemm_dtype)
     if backend == "torch":
         return _TorchCConv.apply(features, weight, geom)
-    raise DcdcError(f"unknown CConv backend {backend!r} (numba, torch, auto)")
+    raise DcdcError(f"unknown CConv backend {backend!r} (fused, numba, torch, auto)")
 
 
 # --------------------------------------------------------------------------- slow reference
