@@ -18,32 +18,50 @@ R = 0.025
 def test_first_coincident_finds_the_first_close_pair():
     x = np.zeros((3, 4, 2))
     x[:, :, 0] = [0.0, 2 * R, 4 * R, 6 * R]
-    x[2, 3] = [4 * R + 0.2 * R, 0.0]  # frame 2: particles 2 and 3 are 0.2 r apart
-    assert gen.first_coincident(x[:2], R) is None
+    x[2, 3] = [4 * R + 0.02 * R, 0.0]  # frame 2: particles 2 and 3 are 0.02 r apart
+    assert gen.first_coincident(x[:2], R, frames=1, particles=1) is None
+    k, i, j, d = gen.first_coincident(x, R, frames=1, particles=1)
+    assert (k, i, j) == (2, 2, 3) and d == pytest.approx(0.02 * R)
+
+
+def test_coincident_means_staying_together_not_passing():
+    """Particles that pass within 0.05 r for a few frames and part, or a lone jammed pair,
+    are not a collapse; three stuck for COINCIDENT_FRAMES frames are, reported at the
+    start of the first one's streak."""
+    T, K = 40, gen.COINCIDENT_FRAMES
+    x = np.zeros((T, 5, 2))
+    x[:, :, 0] = [0.0, 2 * R, 4 * R, 6 * R, 8 * R]
+    x[5:5 + K - 1, 3] = [4 * R + 0.02 * R, 0.0]  # close for K - 1 frames, then apart
+    x[:, 4] = [6 * R + 0.01 * R, 0.0]  # particle 4 jammed against 3 for the whole run
+    assert gen.first_coincident(x, R) is None
+    x[20:, 1] = [0.01 * R, 0.0]  # from frame 20 on particle 1 sits on particle 0
     k, i, j, d = gen.first_coincident(x, R)
-    assert (k, i, j) == (2, 2, 3) and d == pytest.approx(0.2 * R)
+    assert k == 20 or (k, i, j) == (0, 3, 4)
+    assert gen.first_coincident(x, R, particles=5) is None
 
 
 def test_first_coincident_compares_active_particles_only():
     """An unborn particle waits at its nozzle and a removed one stays where it left: neither
     is compared (dcdc.particles.active_mask)."""
     x = np.zeros((2, 3, 2))
-    x[:, :, 0] = [0.0, 2 * R, 0.1 * R]  # particle 2 on top of particle 0
+    x[:, :, 0] = [0.0, 2 * R, 0.01 * R]  # particle 2 on top of particle 0
     times = np.array([0.0, 0.02])
     birth = np.array([0.0, 0.0, 0.02])
-    hit = gen.first_coincident(x, R, times, birth, np.full(3, np.inf))
+    hit = gen.first_coincident(x, R, times, birth, np.full(3, np.inf), frames=1, particles=1)
     assert hit[:3] == (1, 0, 2)  # born in frame 1
     death = np.array([np.inf, np.inf, 0.0])
-    assert gen.first_coincident(x, R, times, np.zeros(3), death) is None
+    assert gen.first_coincident(x, R, times, np.zeros(3), death, frames=1, particles=1) is None
 
 
 def _trajectory(tmp_path, name, close: bool):
     sy = tank_system(2, R, [0.2, 0.1], [(np.zeros(3), [0.2, 0.1, 0.0], _const(0))],
                      [Phase("w", 1000.0)])
-    xs = np.repeat(sy.x[None], 4, axis=0).astype(np.float32)
-    if close:
-        xs[3, 1] = xs[3, 0] + [0.1 * R, 0.0]
-    write_trajectory(tmp_path / f"{name}.h5", name, xs, np.zeros_like(xs), 0.02 * np.arange(4),
+    T = 4 + gen.COINCIDENT_FRAMES
+    xs = np.repeat(sy.x[None], T, axis=0).astype(np.float32)
+    if close:  # from frame 3 on, particle 1 sits 0.1 r from particle 0
+        xs[3:, 1] = xs[3:, 0] + [0.01 * R, 0.0]
+        xs[3:, 2] = xs[3:, 0] + [0.0, 0.01 * R]
+    write_trajectory(tmp_path / f"{name}.h5", name, xs, np.zeros_like(xs), 0.02 * np.arange(T),
                      sy, {"name": name})
     return {"name": name, "status": "ok", "source": "test", "dim": 2, "seed": 0}
 
@@ -60,8 +78,10 @@ def test_generate_refuses_a_trajectory_with_coincident_particles(tmp_path):
     assert stored["error"] == rec["error"]
 
 
-def test_the_generate_limit_is_the_validation_limit():
-    assert gen.COINCIDENT == cases.COINCIDENT == 0.3
+def test_the_generate_limit_is_inside_the_validation_limit():
+    """The validation rows ask more (no pair within 0.3 r in any frame) than generate
+    refuses (a collapse: particles stuck within 0.05 r)."""
+    assert gen.COINCIDENT < cases.COINCIDENT == 0.3
 
 
 def _rows(dim):

@@ -22,11 +22,12 @@ Design (resumable, shardable, never half-written):
   re-running resumes.
 - Before any work: the output directory is checked (:mod:`dcdc.outputs`), every scene's
   particle and memory budget (:mod:`dcdc.scene.budget`) and the run's duration.
-- Every frame a trajectory holds is checked for coincident particles (two active particles
-  closer than :data:`COINCIDENT` particle radii, :func:`first_coincident`); such a
-  trajectory is not kept: its file is removed and it is recorded as failed
-  (``NAME.failed.json``, with the frame and the pair in a one-line reason), like one that
-  diverged, so no dataset carries particles on top of each other.
+- Every frame a trajectory holds is checked for coincident particles
+  (:data:`COINCIDENT_PARTICLES` particles each closer than :data:`COINCIDENT` particle
+  radii to another for :data:`COINCIDENT_FRAMES` consecutive frames, :func:`first_coincident`); such a trajectory is not kept: its file is
+  removed and it is recorded as failed (``NAME.failed.json``, with the frame and the pair in
+  a one-line reason), like one that diverged, so no dataset carries particles stuck on top
+  of each other.
 """
 from __future__ import annotations
 
@@ -48,35 +49,53 @@ from .dataset import is_complete, removed_count
 from .jobs import (Job, _check_same_job, _write_json, check_duration, code_version, parse_shard,
                    family_jobs, random_jobs, run_job, scene_jobs)
 
-COINCIDENT = 0.3
-"""Two active particles closer than this many particle radii count as coincident: lattice
-neighbours are 2 r apart, and a pair at 0.3 r overlaps by 85 % of a spacing, which an
-incompressible fluid cannot hold; a network started from such a frame has no length scale
-to part them (one moved 46 particles by up to 61 m in one step)."""
+COINCIDENT = 0.05
+"""[particle radii] Two active particles closer than this sit practically on top of each
+other (lattice neighbours are 2 r apart): the pressure force, whose kernel gradient
+vanishes as the distance does, cannot part them, and a network started from such a frame
+has no length scale to part them either (one moved 46 particles by up to 61 m in one step)."""
+COINCIDENT_FRAMES = 10
+"""Consecutive frames (0.2 s at the usual frame interval) a particle must stay that close to
+another to count: where the pressure is zero (spray, a thinned-out sheet) pairs pass within
+0.05 r for a frame or a few in many trajectories and part again."""
+COINCIDENT_PARTICLES = 3
+"""How many particles must be stuck at once: a collapse piles particles onto a few points
+(33 particles at three points in a wall's corner); a lone jammed pair is left alone."""
 
 
 def first_coincident(positions, radius: float, times=None, birth=None, death=None,
-                     limit: float = COINCIDENT):
-    """The first frame with coincident particles in ``positions`` [T, N, d] (anything that
-    slices by frame, e.g. an HDF5 dataset, read one frame at a time): ``(k, i, j, distance)``
-    of the closest pair of frame k when it is closer than ``limit`` · ``radius``, else None.
-    With ``times`` and ``birth`` (``death``: None = none removed) only the particles active in
-    each frame are compared (:func:`dcdc.particles.active_mask`: unborn ones wait at their
-    nozzle, removed ones stay where they left)."""
+                     limit: float = COINCIDENT, frames: int = COINCIDENT_FRAMES,
+                     particles: int = COINCIDENT_PARTICLES):
+    """The first coincident particles in ``positions`` [T, N, d] (anything that slices by
+    frame, e.g. an HDF5 dataset, read one frame at a time): ``particles`` particles at once
+    whose nearest active neighbour has been closer than ``limit`` · ``radius`` in ``frames``
+    consecutive frames. Returns ``(k, i, j, distance)``: the first frame k of the first such
+    particle's streak and its closest pair there, or None. With ``times`` and ``birth``
+    (``death``: None = none removed) only the particles active in each frame are compared (:func:`dcdc.particles.active_mask`: unborn ones wait
+    at their nozzle, removed ones stay where they left)."""
     from scipy.spatial import cKDTree
 
+    streak, first = None, {}
     for k in range(len(positions)):
         x = np.asarray(positions[k], dtype=np.float64)
+        if streak is None:
+            streak = np.zeros(len(x), dtype=np.int64)
         idx = np.arange(len(x))
         if times is not None and birth is not None:
             idx = np.flatnonzero(active_mask(birth, death, float(times[k])))
-        if len(idx) < 2:
-            continue
-        d, nn = cKDTree(x[idx]).query(x[idx], k=2)
-        a = int(np.argmin(d[:, 1]))
-        if d[a, 1] < limit * radius:
-            i, j = sorted((int(idx[a]), int(idx[nn[a, 1]])))
-            return k, i, j, float(d[a, 1])
+        close = np.zeros(len(x), dtype=bool)
+        if len(idx) >= 2:
+            d, nn = cKDTree(x[idx]).query(x[idx], k=2)
+            hit = d[:, 1] < limit * radius
+            close[idx[hit]] = True
+            for a in np.flatnonzero(hit):
+                i = int(idx[a])
+                if streak[i] == 0:  # the pair where this particle's streak starts
+                    first[i] = (k, *sorted((i, int(idx[nn[a, 1]]))), float(d[a, 1]))
+        streak = np.where(close, streak + 1, 0)
+        done = np.flatnonzero(streak >= frames)
+        if len(done) >= particles:
+            return first[int(done[0])]
     return None
 
 
@@ -100,7 +119,9 @@ def check_written(out_dir, rec: dict) -> dict:
     path.unlink(missing_ok=True)
     rec = dict(rec, status="failed",
                error=f"coincident particles: {i} and {j} are {dist / r:.3g} r apart at "
-                     f"t = {times[k]:.4f} s (frame {k}; the limit is {COINCIDENT:g} r)")
+                     f"t = {times[k]:.4f} s (frame {k}), and {COINCIDENT_PARTICLES} or more "
+                     f"particles stay within {COINCIDENT:g} r of another for "
+                     f"{COINCIDENT_FRAMES} frames")
     _write_json(Path(out_dir) / f"{rec['name']}.failed.json", rec)
     return rec
 
