@@ -543,7 +543,7 @@ def _fused_applies(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
     (C_out ≤ C_in / 4), bf16 GEMMs and machines without torch's MKL keep the unfused path."""
     ncell, cin, cout = W.shape
     return (_fused.AVAILABLE and gemm_dtype is None and F.dtype in (torch.float32, torch.float64)
-            and 4 * cout * geom.n_send > cin * geom.n_recv)
+            and W.dtype == F.dtype and 4 * cout * geom.n_send > cin * geom.n_recv)
 
 
 def _forward_fused(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry) -> torch.Tensor:
@@ -585,7 +585,7 @@ class _FusedCConv(torch.autograd.Function):
         F, W = ctx.saved_tensors
         geom = ctx.geom
         need_f, need_w = ctx.needs_input_grad[0], ctx.needs_input_grad[1]
-        if (_fused.AVAILABLE and not geom.injective
+        if (_fused.AVAILABLE and not geom.injective and W.dtype == F.dtype
                 and F.dtype in (torch.float32, torch.float64)):
             gF, gW = _backward_fused(F, W, gout.to(F.dtype), geom, need_f, need_w)
         else:
