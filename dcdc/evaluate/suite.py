@@ -129,7 +129,7 @@ def _num(v):
 
 def build(dim: int, out, scenes: int | None = None, members: int = 3, workers: int = 1,
           duration: float | None = None, perturb: float = PERTURB, progress: bool = True,
-          echo=click.echo) -> dict:
+          echo=click.echo, retry_failed: bool = False) -> dict:
     """Build (or resume) the suite in ``out``; returns the index written to suite.json."""
     from ..data import interrupt
     from ..data.dataset import Dataset, is_complete
@@ -150,7 +150,7 @@ def build(dim: int, out, scenes: int | None = None, members: int = 3, workers: i
     t0 = time.time()
     jobs = suite_jobs(dim, n, duration)
     echo(f"suite: {n} {dim}-D scenes, SPH ground truth in {truth}")
-    summary = generate(jobs, truth, workers, progress=progress,
+    summary = generate(jobs, truth, workers, progress=progress, retry_failed=retry_failed,
                        command=f"dcdc suite build --dim {dim} -o {out}")
     ok = [j.name for j in jobs if is_complete(truth / f"{j.name}.h5")]
     failed = [j.name for j in jobs if j.name not in ok]
@@ -247,11 +247,21 @@ def table_rows(index: dict, per_model: dict) -> list[dict]:
         names = [n for n, s in scenes.items() if keep(s)]
         if not names:
             continue
+        # the stored SPH run's order at its last frame (a stopped rollout's rows see an
+        # earlier frame), from the floor's records where the suite has them
+        truth = [next((m["order_ok_true"] for m in scenes[n]["floor"] if "order_ok_true" in m), None)
+                 for n in names]
+        sph = round(float(np.mean(truth)), 4) if None not in truth else None
+        grp = []
         for label, rows in per_model.items():
-            out.append({"group": g, "model": label, "scenes": len(names),
+            grp.append({"group": g, "model": label, "scenes": len(names),
                         **summarise([rows[n] for n in names if n in rows])})
-        out.append({"group": g, "model": FLOOR, "scenes": len(names),
+        grp.append({"group": g, "model": FLOOR, "scenes": len(names),
                     **summarise([m for n in names for m in scenes[n]["floor"]])})
+        for r in grp:
+            if sph is not None and r.get("runs"):
+                r["order_ok_sph"] = sph
+        out += grp
     return out
 
 
@@ -344,12 +354,14 @@ def suite_group():
 @click.option("--workers", type=int, default=1, show_default=True, help="SPH runs in parallel")
 @click.option("--duration", type=float, default=None,
               help="override the scenes' 4 s (a shorter suite, for tests)")
+@click.option("--retry-failed", is_flag=True, help="re-run scenes whose SPH run diverged before")
 @click.option("--no-progress", is_flag=True)
-def build_command(dim, out, scenes, members, workers, duration, no_progress):
+def build_command(dim, out, scenes, members, workers, duration, retry_failed, no_progress):
     """Simulate the suite's scenes with SPH and their ensemble floor (resumable)."""
     from ..data.generate import check_duration
     check_duration(duration)
-    build(dim, out, scenes, members, workers, duration, progress=not no_progress)
+    build(dim, out, scenes, members, workers, duration, progress=not no_progress,
+          retry_failed=retry_failed)
 
 
 @suite_group.command("score")
