@@ -16,3 +16,8 @@ def dcdc_output(args, capsys) -> tuple[int, str, str]:
     code = dcdc_exit(*args)
     out = capsys.readouterr()
     return code, out.out, out.err
+
+
+def dcdc(capsys, *args) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of ``dcdc ARGS`` (any argument turned into a string)."""
+    return dcdc_output([str(a) for a in args], capsys)

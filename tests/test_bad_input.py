@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
-from dcdc.cli import main
+from helpers import dcdc
 
 ROOT = Path(__file__).resolve().parents[1]
 READ_ONLY = Path("/sys")  # read-only even for root (permission bits alone are not, for root)
@@ -46,16 +46,6 @@ start = {start}
 stop = 0.6
 """
 
-
-def dcdc(capsys, *args):
-    """Run the CLI; (exit status, stdout, stderr)."""
-    try:
-        main([str(a) for a in args])
-        code = 0
-    except SystemExit as e:
-        code = e.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def assert_one_line_error(code, err, *words):

@@ -7,6 +7,7 @@ from dcdc.errors import DcdcError
 from dcdc.scene import parse
 from dcdc.scene.families import (FAMILIES, PARTICLES, RATIO_RANGE, SUITE_SEED0, TENSION,
                                  density_ratio, draw_densities, family_scene_text)
+from helpers import dcdc
 
 EMULSION = """
 name = "emu"
@@ -111,16 +112,6 @@ def test_family_scenes_parse(dim, seeds):
     if dim == 2 and len(seeds) >= 6:
         assert starts == {"layered", "emulsion", "sloshing", "tilted"}
 
-
-def dcdc(capsys, *args):
-    from dcdc.cli import main
-    try:
-        main([str(a) for a in args])
-        code = 0
-    except SystemExit as e:
-        code = e.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_generate_family_seed_separation(tmp_path, capsys):

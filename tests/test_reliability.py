@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcdc.cli import main
+from helpers import dcdc
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "data/sample/test2d"
@@ -22,16 +22,6 @@ TRAJ = SAMPLE / "hourglass_2d.h5"
 MODEL = ROOT / "dcdc/assets/models/dcdc2d.pt"
 TINY = ROOT / "examples/train_2d_tiny.toml"
 
-
-def dcdc(capsys, *args):
-    """Run the CLI; (exit status, stdout, stderr)."""
-    try:
-        main([str(a) for a in args])
-        code = 0
-    except SystemExit as e:
-        code = e.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def assert_one_line_error(code, err, *words):

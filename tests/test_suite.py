@@ -6,17 +6,8 @@ import pytest
 
 from dcdc.evaluate import suite as S
 from dcdc.scene.families import FAMILIES, SUITE_SEED0
+from helpers import dcdc
 
-
-def dcdc(capsys, *args):
-    from dcdc.cli import main
-    try:
-        main([str(a) for a in args])
-        code = 0
-    except SystemExit as e:
-        code = e.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
