@@ -10,31 +10,11 @@ import h5py
 import numpy as np
 import pytest
 
-from helpers import dcdc
+from helpers import dcdc, tank_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 READ_ONLY = Path("/sys")  # read-only even for root (permission bits alone are not, for root)
 
-TANK = """name = "tank"
-dim = 2
-radius = {radius}
-duration = {duration}
-[domain]
-min = [0.0, 0.0]
-max = [1.0, 1.0]
-[phases.water]
-density = 1000.0
-[walls.tank]
-shape = "box"
-min = [0.0, 0.0]
-max = [1.0, 1.0]
-hollow = true
-[[fluid]]
-phase = "water"
-shape = "box"
-min = [0.1, 0.1]
-max = [0.5, 0.5]
-"""
 EMITTER = """
 [[emitter]]
 phase = "water"
@@ -57,7 +37,7 @@ def assert_one_line_error(code, err, *words):
 
 
 def scene_file(tmp_path, radius=0.025, duration=1.0, emitter=None, dim=None) -> Path:
-    text = TANK.format(radius=radius, duration=duration)
+    text = tank_toml(radius=radius, duration=duration)
     if dim is not None:
         text = text.replace("dim = 2", f"dim = {dim}")
     if emitter:

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import dcdc
+from helpers import dcdc, tank_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "data/sample/test2d"
@@ -157,32 +157,9 @@ def test_lock_is_released_when_its_process_dies(tmp_path):
 
 
 # ------------------------------------------------------------------ checked before the work
-SCENE = """name = "{name}"
-dim = 2
-radius = {radius}
-seed = {seed}
-duration = 0.1
-[domain]
-min = [0.0, 0.0]
-max = [1.0, 1.0]
-[phases.water]
-density = 1000.0
-[walls.tank]
-shape = "box"
-min = [0.0, 0.0]
-max = [1.0, 1.0]
-hollow = true
-[[fluid]]
-phase = "water"
-shape = "box"
-min = [0.1, 0.1]
-max = [0.5, 0.5]
-"""
-
-
 def scene(tmp_path, name="tank", radius=0.025, seed=0) -> Path:
     p = tmp_path / "s.toml"
-    p.write_text(SCENE.format(name=name, radius=radius, seed=seed))
+    p.write_text(tank_toml(name=name, radius=radius, seed=seed, duration=0.1))
     return p
 
 
