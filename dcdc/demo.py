@@ -288,11 +288,16 @@ def verdict(state: dict, phases) -> str | None:
         return "final order heavy-below: NO"
     if state["layers_ok"]:
         return None
+    from .metrics import HEIGHT_FRACTION, PURITY_RATIO
+
     ratio, rel = np.asarray(state["purity_ratio"]), np.asarray(state["height_w1_rel"])
-    mixed = [p.name for k, p in enumerate(phases) if np.isfinite(ratio[k]) and ratio[k] < 0.9]
-    off = [p.name for k, p in enumerate(phases) if np.isfinite(rel[k]) and rel[k] > 0.05]
-    parts = ([f"more mixed than SPH (purity < 0.9 x SPH's) in {', '.join(mixed)}"] if mixed else []) \
-        + ([f"heights off SPH's by > 5 % of the column in {', '.join(off)}"] if off else [])
+    mixed = [p.name for k, p in enumerate(phases)
+             if np.isfinite(ratio[k]) and ratio[k] < PURITY_RATIO]
+    off = [p.name for k, p in enumerate(phases) if np.isfinite(rel[k]) and rel[k] > HEIGHT_FRACTION]
+    parts = ([f"more mixed than SPH (purity < {PURITY_RATIO:g} x SPH's) in {', '.join(mixed)}"]
+             if mixed else []) \
+        + ([f"heights off SPH's by > {100 * HEIGHT_FRACTION:g} % of the column in {', '.join(off)}"]
+           if off else [])
     return "layers unlike SPH's: " + "; ".join(parts or ["no phase to compare"])
 
 

@@ -352,8 +352,12 @@ def column_depth(x, up: int = 1) -> float:
     return float(h.max() - h.min()) if len(h) else float("nan")
 
 
-def layers_like(purity, purity_ref, height_dist, depth: float, purity_ratio: float = 0.9,
-                height_fraction: float = 0.05) -> bool:
+PURITY_RATIO = 0.9  # layers_like: each phase's purity at least this fraction of the reference's
+HEIGHT_FRACTION = 0.05  # layers_like: each phase's height distance at most this fraction of the column
+
+
+def layers_like(purity, purity_ref, height_dist, depth: float,
+                purity_ratio: float = PURITY_RATIO, height_fraction: float = HEIGHT_FRACTION) -> bool:
     """The verdict "layered like the reference" of one state: every phase's neighbour purity
     is at least ``purity_ratio`` × the reference's (:func:`neighbour_purity_per_phase`) and
     every phase's height distribution is within ``height_fraction`` × the reference column's
