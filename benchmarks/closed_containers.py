@@ -10,10 +10,10 @@
    settings: the heavy phase below the neck at 1, 2, 5, 10 and 15 s, the largest particle
    speed, the wall time.
 
-    python benchmarks/closed_containers.py [--skip-3d] [--json benchmarks/closed_containers.json]
+    python benchmarks/closed_containers.py [--skip-3d] [--json benchmarks/results/closed_containers.json]
 
 The lock exchange and the 2-D hourglass under these settings are in
-``benchmarks/exchange_convergence.py --closed`` (``exchange_convergence_closed.json``).
+``benchmarks/exchange_convergence.py --closed``.
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ share left at the glass under denser fluid (``dcdc.metrics.trapped_at_walls``; i
 ``--scale`` is the scene's length scale (``realize(2, scale)``: the same particle radius in a
 larger glass; default 2.0, the demo's).
 
-One JSON line per run. Measured 2026-12-04 in benchmarks/cocktail_2d_starts.jsonl
+One JSON line per run. Measured 2026-12-04 in benchmarks/results/cocktail_2d_starts.jsonl
 (docs/sph.md, "Known limits").
 """
 from __future__ import annotations

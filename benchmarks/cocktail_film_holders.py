@@ -3,7 +3,7 @@ thick"): the scene's defaults to 10 s, then 5 s more with one setting changed at
 from the same 10 s state; oil (and every phase's) share held at the glass under denser
 fluid (:func:`dcdc.metrics.trapped_at_walls`) at 11-15 s.
 
-    python benchmarks/cocktail_film_holders.py >> benchmarks/cocktail_film_holders.jsonl
+    python benchmarks/cocktail_film_holders.py >> benchmarks/results/cocktail_film_holders.jsonl
 
 Variants: the defaults; interfacial tension off; XSPH and artificial viscosity off; the
 layered reference taking 0.97 and 1.0 of each slab's density (default 0.9); a balanced wall

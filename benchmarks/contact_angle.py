@@ -4,12 +4,12 @@
 (:func:`dcdc.sph.cases.sessile_drop_run`), its angle every 0.25 s
 (:func:`dcdc.sph.cases.cap_contact_angle`):
 
-    python benchmarks/contact_angle.py --dim 2 60 90 120 150 >> benchmarks/contact_angle.jsonl
-    python benchmarks/contact_angle.py --dim 2 --closed 60 90 120 150 >> benchmarks/contact_angle.jsonl
-    python benchmarks/contact_angle.py --dim 3 90 120 >> benchmarks/contact_angle.jsonl
-    python benchmarks/contact_angle.py --dim 3 120 --duration 8 >> benchmarks/contact_angle.jsonl
-    python benchmarks/contact_angle.py --dim 2 --start 150 90 120 >> benchmarks/contact_angle.jsonl
-    python benchmarks/contact_angle.py --dim 3 --start 150 120 >> benchmarks/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 2 60 90 120 150 >> benchmarks/results/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 2 --closed 60 90 120 150 >> benchmarks/results/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 3 90 120 >> benchmarks/results/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 3 120 --duration 8 >> benchmarks/results/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 2 --start 150 90 120 >> benchmarks/results/contact_angle.jsonl
+    python benchmarks/contact_angle.py --dim 3 --start 150 120 >> benchmarks/results/contact_angle.jsonl
 
 ``--start``: the cap's angle at the start (default 90°, a half disc / hemisphere); from 150°
 the drops show how far the contact line can advance (hysteresis).

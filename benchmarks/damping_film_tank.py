@@ -7,7 +7,7 @@ deep / shallow rise ratio (asks 0.67-1.5), the tank at rest's mean speed / √(g
 (at rest and two 1 mm/s random ones, ``cases.jitter``) — and the dam break's front speed
 (lattice start; asks 1.251 ± 10 %). docs/sph.md, "What holds the thin film: the XSPH filter".
 
-    python benchmarks/damping_film_tank.py 0.1/1e-3 0.05/1e-3 ... >> benchmarks/damping_film_tank.jsonl
+    python benchmarks/damping_film_tank.py 0.1/1e-3 0.05/1e-3 ... >> benchmarks/results/damping_film_tank.jsonl
     python benchmarks/damping_film_tank.py '{"reference_share": 1.0}' >> ...   # other settings
 """
 from __future__ import annotations

@@ -5,8 +5,8 @@ them (wall images on); the share that rose more than two spacings and the median
 3 s, per σ. Fritz (1935): a drop on a 90° wall departs above Bo = Δρ g D²/σ ≈ 3.5
 (D = 2r: Bo = 31.9 / σ here).
 
-    python benchmarks/drop_departure.py --dim 2 2 5 6 7 8.5 10 20 > benchmarks/drop_departure.jsonl
-    python benchmarks/drop_departure.py --dim 3 5 10 20 >> benchmarks/drop_departure.jsonl
+    python benchmarks/drop_departure.py --dim 2 2 5 6 7 8.5 10 20 > benchmarks/results/drop_departure.jsonl
+    python benchmarks/drop_departure.py --dim 3 5 10 20 >> benchmarks/results/drop_departure.jsonl
 
 Measured in session 28 (idle machine, both commands 40 s): 2-D all rise at 2 / 5 / 6 / 8.5
 N/m, none at 7 / 10 / 20; 3-D all at 5, 7 of 8 at 10, none at 20.

@@ -1,5 +1,5 @@
 """Markdown tables of `dcdc evaluate` JSON files for docs/models.md:
-    python benchmarks/eval_tables.py benchmarks/eval_2d_*.json
+    python benchmarks/eval_tables.py benchmarks/results/eval_2d_*.json
 One table per file (a row per model: means over its trajectories), then for files of
 built-in scenes one row per scene (steps, final order, centre-of-mass error), and where a
 file holds dcdc2d and cconv2d (or dcdc3d and cconv3d, or dcdcX_sK and cconvX_sK of one

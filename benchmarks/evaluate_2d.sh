@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Scores of the shipped 2-D models against the SPH ground truth (docs/models.md):
 #   bash benchmarks/evaluate_2d.sh [DATA=datasets/2d_su]
-# Writes benchmarks/eval_2d_*.json and plots per trajectory in out/eval_2d/. Two
+# Writes benchmarks/results/eval_2d_*.json and plots per trajectory in out/eval_2d/. Two
 # evaluations run at a time, one thread each (2 cores); ~25 min on the idle 2-core machine.
 # The inertial baseline is the same integrator with the learned correction switched off
 # (every weight zero): x += Δt v + Δt² g, then nothing; it shows what the network adds.
@@ -20,12 +20,12 @@ for mode in contact nocontact; do
     plots() { [ $mode = contact ] && echo "--plots out/eval_2d/$1" || true; }
     # the 7 built-ins to the end of their SPH run (cocktail, hourglass 750 steps) and the
     # canyon showcase over 500 steps (datasets/2d/canyon10: dcdc generate canyon --dim 2 --duration 10)
-    ev $M $base $flag --data "$DATA/test_scenes" --json "benchmarks/eval_2d_test_scenes$sfx.json" $(plots test_scenes) &
-    ev $M $flag --data "$DATA/canyon10" --json "benchmarks/eval_2d_canyon10$sfx.json" $(plots canyon10) &
+    ev $M $base $flag --data "$DATA/test_scenes" --json "benchmarks/results/eval_2d_test_scenes$sfx.json" $(plots test_scenes) &
+    ev $M $flag --data "$DATA/canyon10" --json "benchmarks/results/eval_2d_canyon10$sfx.json" $(plots canyon10) &
     wait
     # all 24 validation and all 18 held-out (ratios 11-19) random scenes
-    ev $M $base $flag --data "$DATA/valid" --json "benchmarks/eval_2d_valid$sfx.json" $(plots valid) &
-    ev $M $flag --data "$DATA/test_ratio" --json "benchmarks/eval_2d_test_ratio$sfx.json" $(plots test_ratio) &
+    ev $M $base $flag --data "$DATA/valid" --json "benchmarks/results/eval_2d_valid$sfx.json" $(plots valid) &
+    ev $M $flag --data "$DATA/test_ratio" --json "benchmarks/results/eval_2d_test_ratio$sfx.json" $(plots test_ratio) &
     wait
 done
-python benchmarks/eval_tables.py benchmarks/eval_2d_*.json
+python benchmarks/eval_tables.py benchmarks/results/eval_2d_*.json

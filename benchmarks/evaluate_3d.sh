@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Scores of the shipped 3-D models against the SPH ground truth (docs/models.md):
 #   bash benchmarks/evaluate_3d.sh [DATA=datasets/3d_su]
-# Writes benchmarks/eval_3d_*.json and plots per trajectory in out/eval_3d/. Two
+# Writes benchmarks/results/eval_3d_*.json and plots per trajectory in out/eval_3d/. Two
 # evaluations run at a time, one thread each (2 cores). The inertial baseline is the same
 # integrator with the learned correction switched off (every weight zero). Rollouts run
 # with the wall contact (docs/evaluation.md); the n+1 / n+2 errors are the network alone.
@@ -17,26 +17,26 @@ M="--model dcdc3d --model cconv3d"
 I="--model out/inertial3d.pt"
 ev() { dcdc evaluate --stride 10 --overwrite "$@" > /dev/null; }
 # the random validation and held-out-ratio scenes (ratios 10-20, outside training)
-ev $M $I --data "$DATA/valid" --json benchmarks/eval_3d_valid.json --plots out/eval_3d/valid &
-ev $M --data "$DATA/test_ratio" --json benchmarks/eval_3d_test_ratio.json --plots out/eval_3d/test_ratio &
+ev $M $I --data "$DATA/valid" --json benchmarks/results/eval_3d_valid.json --plots out/eval_3d/valid &
+ev $M --data "$DATA/test_ratio" --json benchmarks/results/eval_3d_test_ratio.json --plots out/eval_3d/test_ratio &
 wait
 # the built-in scenes: the three showcases over $STEPS steps, lock exchange and dam break to the end
 ev $M --data "$DATA/test_scenes" --trajectory cocktail_3d --trajectory hourglass_3d --steps "$STEPS" \
-    --json benchmarks/eval_3d_showcases.json --plots out/eval_3d/showcases &
+    --json benchmarks/results/eval_3d_showcases.json --plots out/eval_3d/showcases &
 ev $M $I --data "$DATA/test_scenes" --trajectory lock_exchange_3d --trajectory dam_break_3d \
-    --json benchmarks/eval_3d_test_scenes.json --plots out/eval_3d/test_scenes &
+    --json benchmarks/results/eval_3d_test_scenes.json --plots out/eval_3d/test_scenes &
 wait
 # the canyon's own SPH run is 5 s; a 10 s one (DATA/canyon10, docs/datasets.md) for 500 steps
-ev $M --data "$DATA/canyon10" --steps "$STEPS" --json benchmarks/eval_3d_canyon10.json \
+ev $M --data "$DATA/canyon10" --steps "$STEPS" --json benchmarks/results/eval_3d_canyon10.json \
     --plots out/eval_3d/canyon10 &
 wait
 # the showcases again from the SPH state at 0.2 s (frame 10), after the lattice start has
 # settled onto the walls: separates the start-up burst from the rest of the dynamics
 # (docs/models.md, "The cocktail's start-up burst")
 ev $M --data "$DATA/test_scenes" --trajectory cocktail_3d --trajectory hourglass_3d --start-frame 10 \
-    --steps "$((STEPS - 10))" --json benchmarks/eval_3d_showcases_from02s.json \
+    --steps "$((STEPS - 10))" --json benchmarks/results/eval_3d_showcases_from02s.json \
     --plots out/eval_3d/showcases_from02s &
 ev $M --data "$DATA/canyon10" --start-frame 10 --steps "$((STEPS - 10))" \
-    --json benchmarks/eval_3d_canyon10_from02s.json --plots out/eval_3d/canyon10_from02s &
+    --json benchmarks/results/eval_3d_canyon10_from02s.json --plots out/eval_3d/canyon10_from02s &
 wait
-python benchmarks/eval_tables.py benchmarks/eval_3d_*.json
+python benchmarks/eval_tables.py benchmarks/results/eval_3d_*.json

@@ -12,17 +12,16 @@ solver's stabilisation at full strength (the defaults: XSPH ε = 0.1, artificial
   1.77 cm and 1.25 cm: the fraction of the heavy phase below the neck (y < 0.9 m) at
   5, 10 and 15 s and the time at which half of it has passed.
 
-    python benchmarks/exchange_convergence.py [--quick] [--json benchmarks/exchange_convergence.json]
+    python benchmarks/exchange_convergence.py [--quick] [--json benchmarks/results/exchange_convergence.json]
 
-``--quick`` runs only the two coarsest radii of each; ``--hourglass-radii`` other radii (the
-fourth, 8.84 mm = 12.5/√2, in ``benchmarks/exchange_convergence_hourglass_r4.json``);
+``--quick`` runs only the two coarsest radii of each; ``--hourglass-radii`` other radii;
 ``--only``, ``--settings`` and
 ``--seeds 1 2 …`` (ensemble members with a 1 mm/s random start, both flows),
 ``--lock-radii`` and ``--viscous-nu`` (the "viscous" setting: no XSPH, that viscosity) select parts.
 ``--closed`` starts every setting from the closed-container settings instead of the defaults
 (the hydrostatic reference of the light phase, a tenth of the damping:
-:func:`dcdc.sph.reference.closed_container`, what the built-in scenes now use; JSON in
-``benchmarks/exchange_convergence_closed.json``).
+:func:`dcdc.sph.reference.closed_container`, what the built-in closed scenes use; the hourglass's convergence without tension in
+``benchmarks/results/exchange_convergence_hourglass_closed.json``).
 Prints a table; the JSON holds every number and the wall times. The hourglass exchange is
 chaotic: single runs of numerically equal settings differ by several % in the drained
 fraction, so compare ensembles.

@@ -2,8 +2,8 @@
 # GPU measurements in one command, from a fresh checkout on a machine with a CUDA device
 # (issue 10 item 5; budget < 5 min):
 #   bash benchmarks/gpu.sh
-# Writes benchmarks/model_gpu.json (ms per 3-D neural step at 1 k - 100 k particles, the
-# network on the GPU, search + geometry on the CPU) and benchmarks/table1_gpu.json (the
+# Writes benchmarks/results/model_gpu.json (ms per 3-D neural step at 1 k - 100 k particles, the
+# network on the GPU, search + geometry on the CPU) and benchmarks/results/table1_gpu.json (the
 # paper's Table 1, 2-D and 3-D showcases, with the network on the GPU; the SPH solver runs on the CPU cores).
 # CI never has a GPU and nothing depends on this script.
 set -euo pipefail
@@ -28,6 +28,6 @@ if not torch.cuda.is_available():
 print(torch.cuda.get_device_name(0), torch.version.cuda)
 PY
 dcdc benchmark model --device cuda --particles 1000,10000,50000,100000 --repeat 10 \
-    --json benchmarks/model_gpu.json
-dcdc benchmark table1 --device cuda --model3d dcdc3d --json benchmarks/table1_gpu.json \
+    --json benchmarks/results/model_gpu.json
+dcdc benchmark table1 --device cuda --model3d dcdc3d --json benchmarks/results/table1_gpu.json \
     --note "network on $(python3 -c 'import torch; print(torch.cuda.get_device_name(0))'), SPH on $(nproc) CPU cores"

@@ -3,7 +3,7 @@
 :func:`dcdc.sph.cases.laplace_run` (the `laplace` validation drop, 2.5 s, no gravity) for
 each variant and prints a table; ``--json`` writes it.
 
-    python benchmarks/laplace_curvature.py --json benchmarks/laplace_curvature.json
+    python benchmarks/laplace_curvature.py --json benchmarks/results/laplace_curvature.json
 """
 from __future__ import annotations
 

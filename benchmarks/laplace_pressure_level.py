@@ -1,5 +1,5 @@
 """Does the interfacial tension's pressure jump depend on the pressure level? (docs/sph.md,
-"The Laplace jump under a hydrostatic head"). The `laplace` case of `dcdc validate-sph`
+"Interfacial tension"). The `laplace` case of `dcdc validate-sph`
 (2-D quick: r = 1 cm, R = 9 cm, σ = 10 N/m, equal densities, closed 0.4 m box, 1.5 s;
 :func:`dcdc.sph.cases.laplace_drop`) with
 gravity g switched on: over the last 0.5 s, the drop's pressure within R/2 of its centre
@@ -7,7 +7,7 @@ minus a least-squares linear fit (in height) of the ambient's beyond R + h and h
 walls; the same run with σ = 0 from the same start is subtracted ("diff"), which removes
 the hydrostatic discretisation error the fit leaves. Young-Laplace: diff = 1.
 
-    python benchmarks/laplace_pressure_level.py >> benchmarks/laplace_pressure_level.jsonl
+    python benchmarks/laplace_pressure_level.py >> benchmarks/results/laplace_pressure_level.jsonl
 """
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """Density order, purity per phase (metrics.neighbour_purity_per_phase), the share of each
 phase trapped at the walls under denser fluid (metrics.trapped_at_walls) and the densest
 phase's pooled / inverted shares (metrics.pooled_heavy, the canyon's measure) of a stored
-trajectory at the given times; one JSON line per time. The same measures as
-``cocktail_3d_reference_surface.py``, read from a dataset instead of a fresh run:
+trajectory at the given times; one JSON line per time:
 
     python benchmarks/layers_of_trajectory.py datasets/3d_st/test_scenes cocktail_3d [5 10 15]
 """

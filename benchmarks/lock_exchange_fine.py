@@ -1,11 +1,11 @@
-"""The closed lock exchange one radius finer than the full validation table (docs/sph.md,
-"The converged speed"): three starts at r = 2.5 mm (12 800 particles) with the closed
+"""The closed lock exchange one radius finer than the full validation table (docs/validation.md;
+docs/sph.md, "The resolution a current needs"): three starts at r = 2.5 mm (12 800 particles) with the closed
 settings, then each front's Froude number extrapolated to r -> 0 through the table's radii
-(7 / 5 / 3.5 mm, read from ``benchmarks/validate_sph_2d.json``) and this one, to first and
+(7 / 5 / 3.5 mm, read from ``benchmarks/results/validate_sph_2d.json``) and this one, to first and
 second order (:func:`dcdc.sph.cases.extrapolate_to_zero`, equal weights: the table stores the
 starts' spread, not their standard errors).
 
-    python benchmarks/lock_exchange_fine.py --json benchmarks/lock_exchange_fine.json
+    python benchmarks/lock_exchange_fine.py --json benchmarks/results/lock_exchange_fine.json
 
 About 4 min on 2 cores.
 """
@@ -19,7 +19,7 @@ from dcdc.sph.cases import (ENSEMBLE_SEEDS, LOCK_RHO, closed_container, extrapol
                             lock_exchange_ensemble)
 from dcdc.sph.config import SPHConfig
 
-TABLE = "benchmarks/validate_sph_2d.json"
+TABLE = "benchmarks/results/validate_sph_2d.json"
 
 
 def table_fronts(path: str = TABLE) -> dict:

@@ -1,10 +1,10 @@
 """The lock exchange's start-to-start noise and what holds its coarse fronts (docs/sph.md,
-"Closed containers", "Ten starts for the damping check"): ten starts of
+"Closed containers", "The resolution a current needs"): ten starts of
 :func:`dcdc.sph.cases.lock_exchange_run` at r = 10 mm with the closed settings and with their
 damping halved (the paired change of each start), then six starts each with one setting
 changed (time step, solver tolerances, interface damping, kernel support 5 / 3.5 / 3).
 
-    python benchmarks/lock_exchange_starts.py --json benchmarks/lock_exchange_starts_10mm.json
+    python benchmarks/lock_exchange_starts.py --json benchmarks/results/lock_exchange_starts_10mm.json
 
 About 4 min on 2 cores.
 """

@@ -1,7 +1,7 @@
 """The thin-film row of `dcdc validate-sph --case thin_film`, with its resolution series and
 the damping switched off (docs/sph.md, "Why light fluid stays under heavy fluid").
 
-    python benchmarks/thin_film.py [--json benchmarks/thin_film.json]
+    python benchmarks/thin_film.py [--json benchmarks/results/thin_film.json]
 
 A 2 cm film of light fluid (1000 kg/m³) on the floor under a 2:1 heavier fluid, its top
 perturbed by a cosine, rises (Rayleigh-Taylor) alike under 0.3 m and under 0.12 m of heavy

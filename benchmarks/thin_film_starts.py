@@ -4,8 +4,8 @@ perturbed by 0.1 mm (Gaussian, seeds 1, 2, ...): rise under 0.3 m and under 0.12
 heavier fluid after 1 s, and their ratio (docs/sph.md, "Why light fluid stays under heavy
 fluid"; the row asks 0.67-1.5).
 
-    python benchmarks/thin_film_starts.py 0 1 2 >> benchmarks/thin_film_starts.jsonl
-    python benchmarks/thin_film_starts.py --r 0.0075 0 1 2 3 4 5 >> benchmarks/thin_film_starts.jsonl
+    python benchmarks/thin_film_starts.py 0 1 2 >> benchmarks/results/thin_film_starts.jsonl
+    python benchmarks/thin_film_starts.py --r 0.0075 0 1 2 3 4 5 >> benchmarks/results/thin_film_starts.jsonl
 
 ``--r`` sets the particle radius (default 5 mm, the 2-D row's, quick and full: the film two
 rows thick; 7.5 mm makes it 1⅓ rows, 10 mm one). Records without ``r`` are at 5 mm.

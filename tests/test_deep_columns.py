@@ -1,5 +1,7 @@
 """benchmarks/make_deep_columns.py writes valid scenes of the kind it documents."""
-import importlib.util
+import subprocess
+import sys
+
 import pytest
 from pathlib import Path
 
@@ -10,15 +12,13 @@ from dcdc.scene import get_scene
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "make_deep_columns.py"
 
 
-def _module():
-    spec = importlib.util.spec_from_file_location("make_deep_columns", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+def _run(args):
+    """The script as a user runs it (tests import nothing from benchmarks/)."""
+    subprocess.run([sys.executable, str(SCRIPT), *args], check=True)
 
 
 def test_deep_column_scenes_are_deep_layered_and_in_the_training_range(tmp_path):
-    _module().main([str(tmp_path), "4", "0"])
+    _run([str(tmp_path), "4", "0"])
     files = sorted(tmp_path.glob("*.toml"))
     assert len(files) == 4
     for f in files:
@@ -44,7 +44,7 @@ def test_deep_column_scenes_are_deep_layered_and_in_the_training_range(tmp_path)
 
 @pytest.mark.slow
 def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
-    _module().main([str(tmp_path), "12", "0", "glass"])  # seed 11 once left a layer empty
+    _run([str(tmp_path), "12", "0", "glass"])  # seed 11 once left a layer empty
     files = sorted(tmp_path.glob("deep_glass_*.toml"))
     assert len(files) == 12
     for f in files:
@@ -60,7 +60,7 @@ def test_deep_glass_scenes_hold_layered_columns_in_a_glass(tmp_path):
 
 
 def test_neck_scenes_put_heavy_liquid_over_light_across_a_slotted_plate(tmp_path):
-    _module().main([str(tmp_path), "8", "0", "neck"])
+    _run([str(tmp_path), "8", "0", "neck"])
     files = sorted(tmp_path.glob("deep_neck_*.toml"))
     assert len(files) == 8
     for f in files:
@@ -84,7 +84,7 @@ def test_neck_scenes_put_heavy_liquid_over_light_across_a_slotted_plate(tmp_path
 
 
 def test_lock_scenes_hold_two_full_depth_columns_unlike_the_builtin(tmp_path):
-    _module().main([str(tmp_path), "30", "0", "lock"])
+    _run([str(tmp_path), "30", "0", "lock"])
     files = sorted(tmp_path.glob("deep_lock_*.toml"))
     assert len(files) == 30
     for f in files:
