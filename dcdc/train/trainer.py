@@ -46,8 +46,9 @@ from .loss import unrolled_loss
 from .sampler import WindowSampler, augment, collate, dataset_info, load_window
 
 CKPT_DIR = "checkpoints"
-# keys whose change does not stop a --resume (longer runs, other logging)
-RESUMABLE_CHANGES = ("optim.steps", "log.", "eval.every")
+# keys whose change does not stop a --resume (longer runs, other logging; model.init only
+# sets the weights of step 0, which a resumed run takes from its own checkpoint)
+RESUMABLE_CHANGES = ("optim.steps", "log.", "eval.every", "model.init")
 
 
 # ------------------------------------------------------------------ distributed setup
