@@ -2,7 +2,8 @@
 
 * No references to work sessions, training stages by number, issue numbers, a design
   file the repository does not have, or dates in README.md, docs/, dcdc/ (code and the
-  built-in scene files, which ``dcdc scene copy`` hands to users), tests/ and examples/.
+  built-in scene files, which ``dcdc scene copy`` hands to users), tests/, examples/ and
+  configs/ (the models' training recipes).
   The history is in git and CHANGELOG.md (not scanned).
 * Every docs section the code cites by title (``docs/sph.md, "Closed containers"``)
   exists: a heading of that file, or a paragraph that opens with that title in bold or
@@ -34,7 +35,7 @@ PENDING: set[str] = set()
 def _files() -> list[str]:
     out = ["README.md"]
     out += sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))
-    for d in ("dcdc", "tests", "examples"):
+    for d in ("dcdc", "tests", "examples", "configs"):
         out += sorted(str(p.relative_to(ROOT)) for p in (ROOT / d).rglob("*")
                       if p.suffix in (".py", ".toml", ".html", ".md") and p.is_file()
                       and "__pycache__" not in p.parts)
