@@ -49,3 +49,25 @@ max = [0.5, 0.5]
 def tank_toml(name="tank", radius=0.025, seed=0, duration=1.0) -> str:
     """A 2-D scene file's text: a block of water in a closed 1 m box tank, with the fields given."""
     return TANK.format(name=name, radius=radius, seed=seed, duration=duration)
+
+
+FORMAT2_ONLY = ("attrs_sha256", "job_key", "max_density_ratio", "removed")  # group attributes
+
+
+def format1_copy(src, dst) -> None:
+    """Copy the trajectory file ``src`` to ``dst`` as format 1 wrote it: no Fletcher-32
+    checksums, no ``death`` array (written before particles could be removed) and none of
+    the group attributes of :data:`FORMAT2_ONLY`."""
+    import h5py
+    with h5py.File(src) as f, h5py.File(dst, "w") as out:
+        out.attrs["format"] = f.attrs["format"]
+        out.attrs["format_version"] = 1
+        for name, g in f.items():
+            h = out.create_group(name)
+            for k, arr in g.items():
+                if k != "death":
+                    h.create_dataset(k, data=arr[()], chunks=arr.chunks, compression=arr.compression)
+            for k, v in g.attrs.items():
+                if k not in FORMAT2_ONLY + ("complete",):
+                    h.attrs[k] = v
+            h.attrs["complete"] = 1  # last, as the writer did

@@ -10,6 +10,7 @@ from dcdc.data.dataset import max_density_ratio, verify
 from dcdc.data.generate import generate, random_jobs, scene_jobs
 from dcdc.errors import DcdcError
 from dcdc.scene.random import RandomSceneConfig
+from helpers import format1_copy
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,8 +32,16 @@ def test_every_array_carries_a_checksum(ds):
                                    "corrupt": {}}
 
 
-def test_old_files_stay_readable_but_unverifiable():
-    old = Dataset(ROOT / "data/sample/train2d")
+def test_sample_in_git_is_verifiable():
+    for sub in ("train2d", "test2d"):
+        sample = Dataset(ROOT / "data/sample" / sub)
+        assert verify(sample) == {"verified": sample.names, "unverifiable": [], "corrupt": {}}
+
+
+def test_old_files_stay_readable_but_unverifiable(tmp_path):
+    for p in (ROOT / "data/sample/train2d").glob("*.h5"):
+        format1_copy(p, tmp_path / p.name)
+    old = Dataset(tmp_path)
     t = old[0]
     assert t.position.shape[0] == t.n_frames and np.isfinite(t.position).all()
     assert "max_density_ratio" not in t.attrs  # format 1: computed on the fly

@@ -16,6 +16,8 @@ import pytest
 
 from helpers import dcdc, tank_toml
 
+from dcdc.data.dataset import Dataset
+
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "data/sample/test2d"
 TRAJ = SAMPLE / "hourglass_2d.h5"
@@ -252,7 +254,7 @@ VIEWERS = {
 @pytest.mark.parametrize("kind, words", [
     ("zero", ["holds no frames"]),
     ("inf", ["holds no finite position"]),
-    ("flat", ["position has shape [51, 1072], not [frames, particles, 2]"]),
+    ("flat", ["position has shape [51, {2n}], not [frames, particles, 2]"]),
 ])
 @pytest.mark.parametrize("command", sorted(VIEWERS))
 def test_unusable_trajectory_is_one_line(tmp_path, capsys, bad_trajs, command, kind, words):
@@ -260,7 +262,8 @@ def test_unusable_trajectory_is_one_line(tmp_path, capsys, bad_trajs, command, k
     out.mkdir()
     argv = [a.format(t=bad_trajs[kind], o=out) for a in VIEWERS[command]]
     code, _, err = dcdc(capsys, *argv)
-    assert_one_line_error(code, err, f"{kind}.h5", *words)
+    n = Dataset(TRAJ)["hourglass_2d"].n_particles
+    assert_one_line_error(code, err, f"{kind}.h5", *(w.replace("{2n}", str(2 * n)) for w in words))
     assert list(out.iterdir()) == []
 
 

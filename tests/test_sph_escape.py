@@ -16,6 +16,7 @@ from dcdc.errors import DcdcError, SimulationDiverged
 from dcdc.particles import ParticleSystem
 from dcdc.scene import parse
 from dcdc.sph import SPHConfig, Simulator
+from helpers import format1_copy
 
 ROOT = Path(__file__).resolve().parents[1]
 FRAME_DT = 0.02
@@ -200,8 +201,9 @@ def test_generate_keeps_the_trajectory_and_its_deaths(removed_run, tmp_path):
     assert (tmp_path / "err" / "ledge_2d.failed.json").exists()
 
 
-def test_old_files_read_as_all_alive():
-    t = Dataset(ROOT / "data" / "sample" / "train2d")[0]
+def test_old_files_read_as_all_alive(tmp_path):
+    format1_copy(ROOT / "data" / "sample" / "train2d" / "random_0_2d.h5", tmp_path / "old.h5")
+    t = Dataset(tmp_path / "old.h5")[0]
     with h5py.File(t.ref.file) as h:
         assert "death" not in h[t.name]  # written before removal existed
     assert np.isinf(t.death).all() and t.death.shape == (t.n_particles,) and t.removed == 0

@@ -40,7 +40,7 @@ def test_config_round_trip_and_overrides():
     cfg = tiny("optim.lr=2e-4", "model.channels=[4, 6, 6]", "loss.step_weights=[0.25, 0.75]")
     assert cfg.optim.lr == 2e-4 and cfg.model.channels == (4, 6, 6)
     assert cfg.loss.weights() == [0.25, 0.75]
-    assert cfg.curriculum.stages[1] == Stage(0.6, 2.6)
+    assert cfg.curriculum.stages[1] == Stage(0.6, 1.5)
     again = TrainConfig.from_dict(cfg.to_dict())
     assert again == cfg
     assert TrainConfig().loss.weights() == [0.5, 0.5]  # DeepLagrangianFluids' ½, ½
@@ -105,7 +105,7 @@ def test_max_density_ratio_from_attribute_or_present_particles():
     assert max_density_ratio(f) == pytest.approx(2.0)
     ds = Dataset(TRAIN)
     got = sorted(round(max_density_ratio(x), 3) for x in ds)
-    assert got == [1.061, 2.533, 2.659]
+    assert got == [1.0, 1.23, 2.533]  # one of them has a single phase
 
 
 # ---------------------------------------------------------------------- sampler
@@ -118,8 +118,8 @@ def test_sampler_follows_the_curriculum_and_is_a_function_of_seed_and_step():
     assert low == WindowSampler(ds, 3, seed=7).batch(5, 4, 1.1)  # reproducible
     assert low != s.batch(6, 4, 1.1)
     assert {t for st in range(20) for t, _ in s.batch(st, 4, None)} == {0, 1, 2}
-    with pytest.raises(DcdcError, match="curriculum stage 0 .max_ratio 1. selects no trajectory"):
-        s.check_stages([1.0])
+    with pytest.raises(DcdcError, match="curriculum stage 0 .max_ratio 0.9. selects no trajectory"):
+        s.check_stages([0.9])
 
 
 def test_sampler_oversamples_the_start_of_the_trajectories():
@@ -248,7 +248,7 @@ def test_tiny_run_writes_logs_checkpoints_and_a_loadable_model(tmp_path):
     assert ck["config"]["particle_radius"] == 0.025 and ck["config"]["frame_dt"] == 0.02
     assert ck["extra"]["step"] == 6 and "optimizer" not in ck["extra"]
     assert ck["extra"]["train_config"]["optim"]["steps"] == 6
-    assert ck["data"]["trajectories"] == 3 and ck["data"]["density_ratio_max"] > 2.6
+    assert ck["data"]["trajectories"] == 3 and ck["data"]["density_ratio_max"] > 2.5
     assert "optimizer" in read_checkpoint(checkpoints(run)[0])["extra"]
     assert (run / "best.pt").exists()
     # the trained weights moved away from the initial ones

@@ -20,7 +20,43 @@ def dataset_group():
 @click.option("--verify", is_flag=True,
               help="Read every array and check its checksum (exit 2 if any trajectory is corrupt).")
 def info_command(path, as_json, list_trajs, verify):
-    """Summarise the dataset at PATH (a directory or a merged .h5 file)."""
+    """Summarise the dataset at PATH (a directory or a merged .h5 file; a folder whose
+    sub-folders are datasets, such as data/sample, is summarised one dataset after another)."""
+    subs = sub_datasets(path)
+    if not subs:
+        s, check = _describe(path, as_json, list_trajs, verify)
+        if as_json:
+            click.echo(json.dumps(s, indent=1))
+        _report_corrupt(check)
+        return
+    summaries, corrupt = [], {}
+    for k, sub in enumerate(subs):
+        if k and not as_json:
+            click.echo("")
+        s, check = _describe(sub, as_json, list_trajs, verify)
+        summaries.append(s)
+        if check:
+            corrupt.update({f"{sub}:{name}": why for name, why in check["corrupt"].items()})
+    if as_json:
+        click.echo(json.dumps({"path": str(path), "datasets": summaries}, indent=1))
+    _report_corrupt({"corrupt": corrupt} if corrupt else None)
+
+
+def sub_datasets(path) -> list:
+    """The datasets one level below ``path`` when ``path`` is a folder holding no trajectory
+    files of its own but sub-folders that do (``data/sample``: train2d, test2d)."""
+    from pathlib import Path
+
+    from ..outputs import TMP_MARK
+    p = Path(path)
+    if not p.is_dir() or any(p.glob("*.h5")) or any(p.glob(f".*.h5{TMP_MARK}*")):
+        return []
+    return sorted(d for d in p.iterdir()
+                  if d.is_dir() and not d.name.startswith(".") and any(d.glob("*.h5")))
+
+
+def _describe(path, as_json: bool, list_trajs: bool, verify: bool):
+    """Print the summary of one dataset (unless ``as_json``); returns it and the check."""
     from .dataset import Dataset
     ds = Dataset(path)
     check = _verify(ds) if verify else None
@@ -28,9 +64,7 @@ def info_command(path, as_json, list_trajs, verify):
     if check is not None:
         s["verify"] = check
     if as_json:
-        click.echo(json.dumps(s, indent=1))
-        _report_corrupt(check)
-        return
+        return s, check
     click.echo(f"dataset     {s['path']}")
     click.echo(f"trajectories {s['trajectories']} finished" +
                (f", {s['incomplete']} unfinished (ignored)" if s["incomplete"] else "") +
@@ -56,7 +90,7 @@ def info_command(path, as_json, list_trajs, verify):
                    + (f", {len(check['unverifiable'])} without checksums (format 1, not verifiable)"
                       if check["unverifiable"] else "")
                    + (f", {len(check['corrupt'])} CORRUPT" if check["corrupt"] else ""))
-    _report_corrupt(check)
+    return s, check
 
 
 def _verify(ds):
