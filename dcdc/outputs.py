@@ -1,10 +1,10 @@
 """Output paths: checked before any work starts, written under a temporary name, renamed.
 
 Every command that writes (``generate``, ``demo``, ``scene copy``/``random -o``/``show
---image``, ``dataset merge``/``export-lagrangebench``) first calls :func:`check_file` or
-:func:`check_dir`, so a read-only directory, a parent that is a file or a missing parent
-is a one-line :class:`~dcdc.errors.DcdcError` before any simulation, and an existing output
-is refused unless the user passed ``--overwrite``. Files are then written with
+--image``, ``dataset merge``/``export-lagrangebench``, every ``--json`` report) first calls
+:func:`check_file` or :func:`check_dir`, so a read-only directory, a parent that is a file
+or a missing parent is a one-line :class:`~dcdc.errors.DcdcError` before any simulation,
+and an existing output is refused unless the user passed ``--overwrite``. Files are then written with
 :func:`atomic_file` (temporary name in the same directory, fsync, ``os.replace``: atomic on
 POSIX), and a set of files that belong together with :func:`atomic_dir` (a temporary
 directory renamed into place), so a folder never mixes the outputs of two runs. HDF5 files

@@ -37,7 +37,7 @@ def bad(tmp_path_factory):
 
 def test_the_trajectory_names_the_frame(bad):
     t = Dataset(bad / "ds")[0]
-    with pytest.raises(DcdcError, match=r"random_0_2d.*velocitys? beyond 1000 m/s.* frame 3"):
+    with pytest.raises(DcdcError, match=r"random_0_2d.*velocities beyond 1000 m/s.* frame 3"):
         t.window(2, 3)
     t.window(4, 3)  # frames after it are fine
     with pytest.raises(DcdcError, match="frame 3"):

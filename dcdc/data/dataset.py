@@ -362,14 +362,14 @@ class Trajectory:
         neighbour grid or a network cannot take them)."""
         if x is None:
             x, v = self._get("position"), self._get("velocity")
-        for key, a, bound, unit in (("position", x, MAX_POSITION, "m"),
-                                    ("velocity", v, MAX_SPEED, "m/s")):
+        for key, a, bound, unit in (("positions", x, MAX_POSITION, "m"),
+                                    ("velocities", v, MAX_SPEED, "m/s")):
             a = np.asarray(a).reshape(len(a), -1)
             bad = ~np.isfinite(a).all(1)
-            what = "non-finite {k}s (a diverged run)"
+            what = "non-finite {k} (a diverged run)"
             if not bad.any():
                 bad = (np.abs(a) > bound).any(1)
-                what = f"{{k}}s beyond {bound:g} {unit} (not a liquid in metres and seconds)"
+                what = f"{{k}} beyond {bound:g} {unit} (not a liquid in metres and seconds)"
             if bad.any():
                 k = start + int(np.flatnonzero(bad)[0])
                 raise DcdcError(f"{self.ref.file}: trajectory {self.name} has "

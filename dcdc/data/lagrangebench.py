@@ -56,7 +56,7 @@ import numpy as np
 
 from ..errors import DcdcError
 from .dataset import Dataset
-from ..outputs import atomic_dir, check_dir
+from ..outputs import atomic_dir, atomic_h5, check_dir, write_text
 
 PAD_VALUE, FLUID, SOLID_WALL = -1, 0, 1   # lagrangebench.utils.NodeType
 PHASE_TYPES = (FLUID, 4, 5, 6, 7, 8)      # particle_type of phase 0, 1, ...
@@ -102,8 +102,10 @@ def export_lagrangebench(splits: dict, out_dir, connectivity_radius: float | Non
     """``splits``: {"train": path, "valid": path, "test": path} (any subset, train needed for
     the statistics). Returns the metadata written. The files are written into a temporary
     directory that replaces ``out_dir`` at the end (an existing non-empty ``out_dir`` only
-    with ``overwrite``), so it never mixes two exports. ``warn(text)`` is called when the
-    name of ``out_dir`` would make LagrangeBench warn."""
+    with ``overwrite``), so it never mixes two exports; each split's file is built in memory
+    and written whole (:func:`dcdc.outputs.atomic_h5`), so a full disk is one error line and
+    leaves nothing behind. ``warn(text)`` is called when the name of ``out_dir`` would make
+    LagrangeBench warn."""
     if "train" not in splits:
         raise DcdcError("export-lagrangebench needs a --train dataset (statistics come from it)")
     check_dir(out_dir, overwrite=overwrite)
@@ -147,7 +149,6 @@ def _scan(splits: dict) -> dict:
 
 
 def _export(splits: dict, out: Path, connectivity_radius: float | None) -> dict:
-    import h5py
     scanned = _scan(splits)
     t0 = scanned["train"][1][0]
     dim, r, dt = t0.dim, t0.radius, t0.frame_dt
@@ -168,11 +169,12 @@ def _export(splits: dict, out: Path, connectivity_radius: float | None) -> dict:
     pads = np.zeros((0, dim))
     if nmax > nmin:
         pads, box[0] = pad_lattice(extent, cutoff, nmax - nmin)
+    _check_memory(scanned, nmax, dim)
     stats = {"vel": _Moments(dim), "acc": _Moments(dim)}
     listing = {}
     for split, (ds, trajs, T) in scanned.items():
         rows = listing[split] = []
-        with h5py.File(out / f"{split}.h5", "w") as f:
+        with atomic_h5(out / f"{split}.h5") as f:  # built in memory: a full disk is one line
             for k, t in enumerate(trajs):
                 x = t._get("position", slice(0, T)).astype(np.float64) - origin
                 w = np.asarray(t.wall_x, np.float64) - origin
@@ -204,7 +206,7 @@ def _export(splits: dict, out: Path, connectivity_radius: float | None) -> dict:
                     stats["vel"].add(vel.reshape(-1, dim))
                     stats["acc"].add(np.diff(vel, axis=0).reshape(-1, dim))
     if gravity and any(gravity):
-        (out / "force.py").write_text(FORCE_PY.format(gravity=tuple(gravity)))
+        write_text(out / "force.py", FORCE_PY.format(gravity=tuple(gravity)))
     seq = {s: (T - 1, len(trajs)) for s, (_, trajs, T) in scanned.items()}
     test = seq.get("test", seq.get("valid", seq["train"]))
     n_phases = max(len(t.phases) for _, trajs, _ in scanned.values() for t in trajs)
@@ -238,8 +240,28 @@ def _export(splits: dict, out: Path, connectivity_radius: float | None) -> dict:
         "units": {"length": "m", "time": "s", "density": "kg/m^3", "gravity": "m/s^2"},
         "trajectories": listing,
     }
-    (out / "metadata.json").write_text(json.dumps(meta, indent=1))
+    write_text(out / "metadata.json", json.dumps(meta, indent=1))
     return meta
+
+
+def split_bytes(T: int, count: int, nmax: int, dim: int) -> int:
+    """Bytes of one split's arrays: positions [T, nmax, dim] float32 and the per-particle
+    type, phase and density (4 bytes each) of ``count`` trajectories."""
+    return count * (T * nmax * dim * 4 + 3 * nmax * 4)
+
+
+def _check_memory(scanned: dict, nmax: int, dim: int) -> None:
+    """A split's file is built in memory (:func:`dcdc.outputs.atomic_h5`), one split at a
+    time: refuse a split larger than half this machine's memory before writing any."""
+    from ..scene.budget import physical_memory
+    mem = physical_memory()
+    for split, (_, trajs, T) in scanned.items():
+        size = split_bytes(T, len(trajs), nmax, dim)
+        if mem and size > 0.5 * mem:
+            raise DcdcError(f"the {split} split ({len(trajs)} trajectories of {T} frames x "
+                            f"{nmax} particles) makes a {size / 2**30:.1f} GiB {split}.h5, more "
+                            f"than half of this machine's {mem / 2**30:.1f} GiB of memory, "
+                            f"which builds it; export fewer trajectories per split")
 
 
 class _Moments:

@@ -11,7 +11,8 @@ import click
 
 from ..errors import DcdcError
 from . import CONTACT_DEFAULT
-from .start import settle_frames, settle_with_sph, start_from_dataset, start_from_scene
+from .start import (check_start_frame, settle_frames, settle_with_sph, start_from_dataset,
+                    start_from_scene)
 
 
 @click.command("simulate")
@@ -267,9 +268,7 @@ def evaluate_command(models, data, names, steps, start_frame, stride, max_speed,
     if not trajs:
         raise DcdcError(f"{data}: no finished trajectories to evaluate")
     for t in trajs:
-        if not 0 <= start_frame < t.n_frames - 1:
-            raise DcdcError(f"--start-frame {start_frame} outside {t.name} (a rollout can start "
-                            f"at frames 0..{t.n_frames - 2})")
+        check_start_frame(t.name, t.n_frames, start_frame)
     nets = [load_checkpoint(m)[0] for m in models]
     labels = _labels(models)
     for net, m in zip(nets, models):  # every mismatch before any work

@@ -15,6 +15,7 @@ from .. import metrics as M
 from ..errors import DcdcError
 from . import CONTACT_DEFAULT
 from .rollout import Guard, NeuralSimulator, run
+from .start import check_start_frame
 
 MM = 1e3  # metres -> millimetres
 PURITY_RADIUS = 4.0  # neighbour purity within this many particle radii (the SPH support h)
@@ -204,9 +205,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                      what=f"trajectory {traj.name}")
     traj.check_values()  # every frame feeds the n+1/n+2 errors and the comparisons
     s0 = int(start_frame)
-    if not 0 <= s0 < traj.n_frames - 1:
-        raise DcdcError(f"start frame {s0} outside {traj.name} (frames 0..{traj.n_frames - 2} "
-                        f"can start a rollout)")
+    check_start_frame(traj.name, traj.n_frames, s0, flag="start frame")
     n1, n2, starts = (one_two_step_errors(model, traj, stride) if one_two_step
                       else (float("nan"), float("nan"), 0))
     left = traj.n_frames - 1 - s0

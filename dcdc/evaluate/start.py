@@ -61,12 +61,32 @@ def settle_with_sph(system, scene: str, frames: int, frame_dt: float, progress=N
     return frames * frame_dt
 
 
+def check_start_frame(name: str, n_frames: int, frame: int, *, need_next: bool = True,
+                      flag: str = "--start-frame", hint: str = "") -> None:
+    """One-line error unless a rollout can start at ``frame`` of trajectory ``name`` with
+    ``n_frames`` frames. With ``need_next`` (no --steps: the rollout runs to the last frame;
+    an evaluation compares with the frames after the start) a frame after the start must
+    exist, so a one-frame trajectory is refused as such, whatever ``frame`` is; ``hint`` ends
+    that message (e.g. how to roll out anyway)."""
+    if n_frames < 1:
+        raise DcdcError(f"trajectory {name} holds no frames; a rollout needs a frame to start from")
+    if need_next and n_frames < 2:
+        raise DcdcError(f"trajectory {name} has one frame; a rollout needs at least two (a "
+                        f"start and a frame after it){hint}")
+    last = n_frames - 2 if need_next else n_frames - 1
+    if not 0 <= frame <= last:
+        where = ("the last frame of", "which no frame follows") if frame == n_frames - 1 else \
+            ("outside", f"which has {n_frames} frames")
+        raise DcdcError(f"{flag} {frame} is {where[0]} {name}, {where[1]} (a rollout can start "
+                        f"at frames 0..{last}){hint if frame == n_frames - 1 else ''}")
+
+
 def start_from_dataset(dataset: str, name: str, frame: int, steps):
     """(system, start time, n_steps, attrs) of a ground-truth trajectory's frame."""
     from ..data.dataset import Dataset
     traj = Dataset(dataset)[name]
-    if not 0 <= frame < traj.n_frames - (0 if steps else 1):
-        raise DcdcError(f"--start-frame {frame} outside {name} (frames 0..{traj.n_frames - 1})")
+    check_start_frame(name, traj.n_frames, frame, need_next=steps is None,
+                      hint="; or give --steps N to roll out past the trajectory's end")
     n = steps if steps is not None else traj.n_frames - 1 - frame
     attrs = {"scene": str(traj.attrs.get("scene", name)), "source": f"{dataset}:{name}",
              "ground_truth": str(Path(dataset)), "ground_truth_trajectory": name,

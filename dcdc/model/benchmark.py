@@ -24,7 +24,6 @@ import platform
 import statistics
 import threading
 import time
-from pathlib import Path
 
 import click
 import numpy as np
@@ -100,9 +99,10 @@ def machine_info() -> dict:
 
 
 def _write_json(path, payload):
+    """Write the results to ``path`` (checked before the work by the CLI) atomically."""
     if path:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        Path(path).write_text(json.dumps(payload, indent=2) + "\n")
+        from ..outputs import write_text
+        write_text(path, json.dumps(payload, indent=2) + "\n")
         click.echo(f"wrote {path}")
 
 

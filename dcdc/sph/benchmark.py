@@ -12,12 +12,12 @@ import math
 import os
 import platform
 import time
-from pathlib import Path
 
 import click
 import numpy as np
 
 from ..errors import DcdcError
+from ..outputs import write_text
 from ..particles import DEFAULT_RADIUS, FRAME_DT, ParticleSystem, Phase
 from .cases import tank_system
 from .config import SPHConfig
@@ -173,8 +173,7 @@ def benchmark_command(json_path, particles, duration, ratios, dim, solver, splis
                                "cores": os.cpu_count(), "python": platform.python_version(),
                                "load_average_1min": [load_start, os.getloadavg()[0]]},
                    "duration_s": duration, "repeat": repeat, "results": results}
-            Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-            Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+            write_text(json_path, json.dumps(doc, indent=2, default=float) + "\n")
 
     click.echo(f"{'solver':<22} {'ratio':>6} {'fluid':>8} {'threads':>7} {'wall s/s':>10} "
                f"{'ms/step':>9} {'dt ms':>9} {'iters':>8}")

@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import json
 import time
-from pathlib import Path
 
 import click
 
 from ..configs import apply_overrides
 from ..errors import DcdcError
+from ..outputs import write_text
 from .cases import CASES, Row
 from .config import SPHConfig
 
@@ -66,7 +66,6 @@ def validate_command(quick, dim, cases, solver, sph_set, json_path):
     if json_path:
         doc = {"dim": int(dim), "quick": quick, "solver": solver, "sph": cfg.to_dict(), "wall_s": wall,
                "passed": n_fail == 0, "rows": [r.as_dict() for r in rows]}
-        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-        Path(json_path).write_text(json.dumps(doc, indent=2, default=float) + "\n")
+        write_text(json_path, json.dumps(doc, indent=2, default=float) + "\n")
     if n_fail:
         raise SystemExit(1)
