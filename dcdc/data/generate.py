@@ -242,6 +242,9 @@ def _write_index(out_dir: Path, summary: dict) -> None:
 @click.option("--max-ratio", type=float, default=10.0, show_default=True, help="Random scenes: max density ratio.")
 @click.option("--min-ratio", type=float, default=1.0, show_default=True, help="Random scenes: min density ratio.")
 @click.option("--density-range", type=(float, float), default=(500.0, 5000.0), show_default=True)
+@click.option("--tension", type=float, default=0.0, show_default=True,
+              help="Random scenes: interfacial tension σ [N/m] between every pair of phases "
+                   "(the solver's default model; the family scenes use 20).")
 @click.option("--duration", type=float, default=None, help="Override every scene's duration [s].")
 @click.option("--split", default="", help="Label stored with each trajectory (train/valid/test).")
 @click.option("--workers", type=int, default=1, show_default=True, help="Scenes simulated in parallel.")
@@ -255,7 +258,7 @@ def _write_index(out_dir: Path, summary: dict) -> None:
               help="Particle budget per scene (default 1e7 or $DCDC_MAX_PARTICLES).")
 @click.option("--no-progress", is_flag=True)
 def generate_command(scenes, out, n_random, family, seed, dim, resolution, max_ratio, min_ratio,
-                     density_range, duration, split, workers, shard, sph_set, simulator,
+                     density_range, tension, duration, split, workers, shard, sph_set, simulator,
                      retry_failed, max_particles, no_progress):
     """Simulate SCENES (built-in names or .toml files) or --random N scenes into a dataset.
 
@@ -278,6 +281,9 @@ def generate_command(scenes, out, n_random, family, seed, dim, resolution, max_r
         raise DcdcError("--workers must be >= 1")
     if bool(scenes) == bool(n_random):
         raise DcdcError("give scene names/files or --random N (not both, not neither)")
+    if tension and not n_random or tension and family is not None:
+        raise DcdcError("--tension applies to --random scenes only (the family scenes have "
+                        "20 N/m; a scene file sets [solver.interfacial_tension])")
     if family is not None and not n_random:
         raise DcdcError("--family needs --random N (the number of scenes)")
     if family is not None:
@@ -285,7 +291,7 @@ def generate_command(scenes, out, n_random, family, seed, dim, resolution, max_r
     elif n_random:
         from ..scene.random import RandomSceneConfig
         cfg = RandomSceneConfig(dim=dim or 2, max_ratio=max_ratio, min_ratio=min_ratio,
-                                density_range=tuple(density_range))
+                                density_range=tuple(density_range), tension=tension)
         cfg.check()
         jobs = random_jobs(n_random, seed, cfg, duration, split, overrides or None)
     else:

@@ -89,12 +89,15 @@ def copy_command(name, output, overwrite):
 @click.option("--min-ratio", type=float, default=1.0, show_default=True,
               help="Smallest max/min density ratio (e.g. held-out tests beyond the training range).")
 @click.option("--density-range", type=(float, float), default=(500.0, 5000.0), show_default=True)
+@click.option("--tension", type=float, default=0.0, show_default=True,
+              help="Interfacial tension σ [N/m] between every pair of phases (0 = none).")
 @click.option("--duration", type=float, default=None, help="Seconds (default: drawn 2-3 s).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="Write the scene file here (default: stdout).")
 @click.option("--image", type=click.Path(dir_okay=False), default=None)
 @click.option("--overwrite", is_flag=True, help="Replace existing --output / --image files.")
-def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, output, image, overwrite):
+def random_command(seed, dim, max_ratio, min_ratio, density_range, tension, duration, output, image,
+                   overwrite):
     """A random training scene, reproducible from --seed."""
     from .budget import check_duration
     from .random import RandomSceneConfig, random_scene_text
@@ -105,7 +108,8 @@ def random_command(seed, dim, max_ratio, min_ratio, density_range, duration, out
         check_image(image, overwrite)
     check_duration(duration)
     cfg = RandomSceneConfig(dim=dim, max_ratio=max_ratio, min_ratio=min_ratio,
-                            density_range=density_range, duration=duration)
+                            density_range=density_range, duration=duration, tension=tension)
+    cfg.check()
     text = random_scene_text(seed, cfg)
     if output:
         write_text(output, text)
