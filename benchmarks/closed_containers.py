@@ -31,7 +31,9 @@ import numpy as np
 from dcdc.particles import Phase
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import G, LOCK_RHO, run, tank_system
+from dcdc.sph.experiments import LOCK_RHO
+from dcdc.sph.fixtures import G, tank_system
+from dcdc.sph.measures import run
 from dcdc.sph.reference import closed_container
 
 sys.path.insert(0, str(Path(__file__).parent))

@@ -1,8 +1,8 @@
 """Young's contact angle of a drop on a wall with the "pairwise" tension's wall tensions
 (``sph.wall_tension``; docs/sph.md, "Wetting"): a half disc (hemisphere) of radius R
 (2-D: 8 spacings, 3-D: 4) on the floor of a closed box, equal densities, no gravity, starting at 90°
-(:func:`dcdc.sph.cases.sessile_drop_run`), its angle every 0.25 s
-(:func:`dcdc.sph.cases.cap_contact_angle`):
+(:func:`dcdc.sph.experiments.sessile_drop_run`), its angle every 0.25 s
+(:func:`dcdc.sph.measures.cap_contact_angle`):
 
     python benchmarks/contact_angle.py --dim 2 60 90 120 150 >> benchmarks/results/contact_angle.jsonl
     python benchmarks/contact_angle.py --dim 2 --closed 60 90 120 150 >> benchmarks/results/contact_angle.jsonl
@@ -23,7 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from dcdc.sph.cases import sessile_drop_run
+from dcdc.sph.experiments import sessile_drop_run
 from dcdc.sph.reference import CLOSED_DAMPING
 
 

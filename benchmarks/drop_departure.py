@@ -16,11 +16,11 @@ from __future__ import annotations
 import argparse
 import json
 
-from dcdc.sph.cases import floor_drops_run
+from dcdc.sph.experiments import floor_drops_run
 
 
 def drops(dim: int, sigma: float) -> dict:
-    """One JSON line: :func:`dcdc.sph.cases.floor_drops_run` over 3 s."""
+    """One JSON line: :func:`dcdc.sph.experiments.floor_drops_run` over 3 s."""
     m = floor_drops_run(dim, sigma, T=3.0)
     return {"dim": dim, "sigma": sigma, "bond": round(m["bond"], 2), "drops": m["drops"],
             "risen": m["risen"], "median_rise_r": round(m["median_rise_r"], 2)}

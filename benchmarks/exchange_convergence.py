@@ -7,7 +7,7 @@ solver's stabilisation at full strength (the defaults: XSPH ε = 0.1, artificial
 * the full-depth 2-D lock exchange of ``dcdc validate-sph --case lock_exchange``
   (1500 | 1000 kg/m³, 1.6 × 0.2 m closed tank): Froude numbers of the heavy (floor) and
   light (lid) fronts, Fr = U / sqrt(g'H), fitted over t = 2-5 T0
-  (:func:`dcdc.sph.cases.lock_exchange_run`); energy-conserving theory ½ (Benjamin 1968);
+  (:func:`dcdc.sph.experiments.lock_exchange_run`); energy-conserving theory ½ (Benjamin 1968);
 * the built-in 2-D hourglass (2500 over 1000 kg/m³, 15 s) at the scene's radius 2.5 cm,
   1.77 cm and 1.25 cm: the fraction of the heavy phase below the neck (y < 0.9 m) at
   5, 10 and 15 s and the time at which half of it has passed.
@@ -40,7 +40,7 @@ import numpy as np
 
 from dcdc.scene import get_scene
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import LOCK_RHO, lock_exchange_run
+from dcdc.sph.experiments import LOCK_RHO, lock_exchange_run
 from dcdc.sph.reference import closed_container
 
 NECK_Y = 0.9  # the hourglass neck: half the 1.8 m cavity

@@ -1,6 +1,6 @@
 """The Young-Laplace jump of the "curvature" interfacial tension model under refinement,
 σ and density ratio (docs/sph.md, "Interfacial tension"): runs
-:func:`dcdc.sph.cases.laplace_run` (the `laplace` validation drop, 2.5 s, no gravity) for
+:func:`dcdc.sph.experiments.laplace_run` (the `laplace` validation drop, 2.5 s, no gravity) for
 each variant and prints a table; ``--json`` writes it.
 
     python benchmarks/laplace_curvature.py --json benchmarks/results/laplace_curvature.json
@@ -12,7 +12,7 @@ import json
 import platform
 import time
 
-from dcdc.sph.cases import laplace_run
+from dcdc.sph.experiments import laplace_run
 from dcdc.sph.config import SPHConfig
 
 # (dim, r [m], σ [N/m], (ambient, drop) densities [kg/m³], model)

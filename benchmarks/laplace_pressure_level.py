@@ -1,7 +1,7 @@
 """Does the interfacial tension's pressure jump depend on the pressure level? (docs/sph.md,
 "Interfacial tension"). The `laplace` case of `dcdc validate-sph`
 (2-D quick: r = 1 cm, R = 9 cm, σ = 10 N/m, equal densities, closed 0.4 m box, 1.5 s;
-:func:`dcdc.sph.cases.laplace_drop`) with
+:func:`dcdc.sph.fixtures.laplace_drop`) with
 gravity g switched on: over the last 0.5 s, the drop's pressure within R/2 of its centre
 minus a least-squares linear fit (in height) of the ambient's beyond R + h and h from the
 walls; the same run with σ = 0 from the same start is subtracted ("diff"), which removes
@@ -17,7 +17,8 @@ import time
 import numpy as np
 
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import drop_radius, laplace_box, laplace_drop, max_radius_ratio, run
+from dcdc.sph.fixtures import laplace_box, laplace_drop
+from dcdc.sph.measures import drop_radius, max_radius_ratio, run
 
 NO_REFERENCE = {"reference_surface": False, "reference_stratified": False}
 RUNS = [  # (model, g [m/s²], solver overrides)

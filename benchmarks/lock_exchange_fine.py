@@ -2,7 +2,7 @@
 docs/sph.md, "The resolution a current needs"): three starts at r = 2.5 mm (12 800 particles) with the closed
 settings, then each front's Froude number extrapolated to r -> 0 through the table's radii
 (7 / 5 / 3.5 mm, read from ``benchmarks/results/validate_sph_2d.json``) and this one, to first and
-second order (:func:`dcdc.sph.cases.extrapolate_to_zero`, equal weights: the table stores the
+second order (:func:`dcdc.sph.measures.extrapolate_to_zero`, equal weights: the table stores the
 starts' spread, not their standard errors).
 
     python benchmarks/lock_exchange_fine.py --json benchmarks/results/lock_exchange_fine.json
@@ -15,8 +15,9 @@ import argparse
 import json
 import re
 
-from dcdc.sph.cases import (ENSEMBLE_SEEDS, LOCK_RHO, closed_container, extrapolate_to_zero,
-                            lock_exchange_ensemble)
+from dcdc.sph.experiments import ENSEMBLE_SEEDS, LOCK_RHO, lock_exchange_ensemble
+from dcdc.sph.measures import extrapolate_to_zero
+from dcdc.sph.reference import closed_container
 from dcdc.sph.config import SPHConfig
 
 TABLE = "benchmarks/results/validate_sph_2d.json"

@@ -1,6 +1,6 @@
 """The lock exchange's start-to-start noise and what holds its coarse fronts (docs/sph.md,
 "Closed containers", "The resolution a current needs"): ten starts of
-:func:`dcdc.sph.cases.lock_exchange_run` at r = 10 mm with the closed settings and with their
+:func:`dcdc.sph.experiments.lock_exchange_run` at r = 10 mm with the closed settings and with their
 damping halved (the paired change of each start), then six starts each with one setting
 changed (time step, solver tolerances, interface damping, kernel support 5 / 3.5 / 3).
 
@@ -15,7 +15,8 @@ import json
 
 import numpy as np
 
-from dcdc.sph.cases import LOCK_RHO, _halved_damping, closed_container, lock_exchange_run
+from dcdc.sph.experiments import LOCK_RHO, halved_damping, lock_exchange_run
+from dcdc.sph.reference import closed_container
 from dcdc.sph.config import SPHConfig
 
 R = 0.01
@@ -33,7 +34,7 @@ def main() -> None:
     ap.add_argument("--json", help="write the runs here")
     args = ap.parse_args()
     closed = closed_container(SPHConfig().to_dict(), LOCK_RHO[1])
-    cfg, half = SPHConfig.from_dict(closed), _halved_damping(closed)
+    cfg, half = SPHConfig.from_dict(closed), halved_damping(closed)
     rows = []
     for seed in range(10):
         (h, l), (hh, lh) = fronts(cfg, seed), fronts(half, seed)
@@ -55,7 +56,7 @@ def main() -> None:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"what": "lock exchange 1.5:1, 2-D, r = 10 mm, closed settings "
-                       "(dcdc.sph.cases.lock_exchange_run, closed_container) and the same with "
+                       "(dcdc.sph.experiments.lock_exchange_run, closed_container) and the same with "
                        "xsph and viscosity halved, seeds 0-9 (jitter)", "rows": rows,
                        "variants_6_starts": {"what": "the closed settings with one change, "
                                              "seeds 0-5, mean Fr heavy / light and their "

@@ -17,7 +17,7 @@ import platform
 import time
 
 from dcdc.sph import SPHConfig
-from dcdc.sph.cases import FILM, film_pair
+from dcdc.sph.experiments import FILM, film_pair
 
 RUNS = [  # (label, dim, r, settings)
     ("2-D r 10 mm (quick)", 2, 0.01, {}),

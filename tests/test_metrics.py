@@ -54,8 +54,8 @@ def test_ideal_layer_purity_matches_hand_count():
 
 
 def test_ideal_layer_purity_same_as_sph_validation():
-    """The validation's definition (dcdc.sph.cases.layer_purity) gives the same number."""
-    cases = pytest.importorskip("dcdc.sph.cases")
+    """The validation's definition (dcdc.sph.measures.layer_purity) gives the same number."""
+    measures = pytest.importorskip("dcdc.sph.measures")
     from dcdc.particles import ParticleSystem, Phase
     rng = np.random.default_rng(1)
     x = rng.random((200, 2))
@@ -64,7 +64,7 @@ def test_ideal_layer_purity_same_as_sph_validation():
                         [Phase("a", 1000.0), Phase("b", 2000.0)], np.zeros((0, 2)),
                         np.zeros((0, 2)), (0, -9.81), ((-1, -1), (2, 2)))
     ours = M.ideal_layer_purity(x, phase, [1, 0], 0.0, 1.0, 0.0025, sy.spacing)
-    assert ours == pytest.approx(cases.layer_purity(sy, [1, 0], 0.0, 1.0, 0.0025))
+    assert ours == pytest.approx(measures.layer_purity(sy, [1, 0], 0.0, 1.0, 0.0025))
 
 
 def test_neighbour_purity():

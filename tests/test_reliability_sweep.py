@@ -111,7 +111,7 @@ def test_lagrangebench_split_size_is_what_is_written(tmp_path):
 
 # ------------------------------------------------------------------ JSON reports
 def _fake_validate(*args, **kwargs):
-    from dcdc.sph.cases import Row
+    from dcdc.sph.measures import Row
     return [Row("hydrostatic", "pressure error", 0.01, "0", "< 0.05", True)]
 
 

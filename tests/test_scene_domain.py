@@ -1,5 +1,5 @@
 """Scenes without ``[domain]``: the domain is the box around every wall, fluid block and
-emitter (``dcdc.scene.format.derive_domain``); a wall without a box (terrain) is a
+emitter (``dcdc.scene.realize.derive_domain``); a wall without a box (terrain) is a
 one-line error; open scenes combine it with ``[solver] on_escape = "remove"``. Also the
 rectangular nozzle (``[[emitter]] shape = "box"``)."""
 import re
@@ -11,7 +11,7 @@ import pytest
 from dcdc.errors import DcdcError, SimulationDiverged
 from dcdc.scene import parse
 from dcdc.scene.budget import estimate
-from dcdc.scene.format import _build_walls, _wall_bounds
+from dcdc.scene.realize import _build_walls, _wall_bounds
 from helpers import dcdc_output
 from test_scene_format import MINIMAL
 

@@ -11,7 +11,7 @@ from dcdc.errors import DcdcError
 from dcdc.particles import Phase
 from dcdc.sph import Simulator, SPHConfig
 from dcdc.sph import volume_map as VM
-from dcdc.sph.cases import _const, tank_system
+from dcdc.sph.fixtures import one_phase, tank_system
 from dcdc.sph.dfsph import _acceleration
 
 R = 0.025
@@ -19,7 +19,7 @@ R = 0.025
 
 def _tank(dim, r=R, size=(0.4, 0.4, 0.2)):
     size = list(size)[:dim]
-    return tank_system(dim, r, size, [(np.zeros(3), [0.4, 0.4, 0.2], _const(0))],
+    return tank_system(dim, r, size, [(np.zeros(3), [0.4, 0.4, 0.2], one_phase(0))],
                        [Phase("w", 1000.0)], wall_height=0.6)
 
 
@@ -102,7 +102,7 @@ def test_floor_row_stays_near_its_lattice_height_without_damping():
     """A 2-D tank at rest without XSPH and artificial viscosity: after 0.5 s the floor row
     sits at ≥ 0.9 r with the balanced wall (the plain map: it sinks to ~0.35 r)."""
     r = 0.0125
-    sy = tank_system(2, r, [0.5, 0.5], [(np.zeros(3), [0.5, 0.5, 0], _const(0))],
+    sy = tank_system(2, r, [0.5, 0.5], [(np.zeros(3), [0.5, 0.5, 0], one_phase(0))],
                      [Phase("w", 1000.0)], wall_height=0.7)
     heights = {}
     for support in (0.0, 2.0):

@@ -6,7 +6,7 @@ import pytest
 from dcdc.errors import DcdcError
 from dcdc.particles import Phase
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import _const, tank_system
+from dcdc.sph.fixtures import one_phase, tank_system
 from dcdc.sph.kernels import lattice_volume
 from dcdc.sph.neighbourhood import build
 from dcdc.sph.terms import strain_rate, viscosity_acceleration
@@ -66,7 +66,7 @@ def test_eddy_viscosity_damps_particle_scale_motion():
     kinetic energy after 1 s with C_s = 0.4 than without (measured 0.054 against 0.096; the
     standard C_s = 0.12 keeps 0.085)."""
     r = 0.025
-    sy = tank_system(2, r, [0.4, 0.4], [(np.zeros(3), [0.4, 0.4, 0], _const(0))],
+    sy = tank_system(2, r, [0.4, 0.4], [(np.zeros(3), [0.4, 0.4, 0], one_phase(0))],
                      [Phase("w", 1000.0)], closed=True)
     sy.gravity[:] = 0.0
     sy.v[:] = np.random.default_rng(0).normal(0.0, 0.05, sy.v.shape)

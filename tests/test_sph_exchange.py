@@ -5,7 +5,8 @@ import pytest
 import numpy as np
 
 from dcdc.sph import SPHConfig
-from dcdc.sph.cases import CASES, exchange_fronts, extrapolate_to_zero, front_speed
+from dcdc.sph.cases import CASES
+from dcdc.sph.measures import exchange_fronts, extrapolate_to_zero, front_speed
 
 
 def test_fronts_on_synthetic_currents():

@@ -9,8 +9,9 @@ from dcdc.data import generate as gen
 from dcdc.data.dataset import write_trajectory
 from dcdc.particles import Phase
 from dcdc.sph import SPHConfig
-from dcdc.sph import cases
-from dcdc.sph.cases import CASES, _const, tank_system
+from dcdc.sph import measures
+from dcdc.sph.cases import CASES
+from dcdc.sph.fixtures import one_phase, tank_system
 
 R = 0.025
 
@@ -54,7 +55,7 @@ def test_first_coincident_compares_active_particles_only():
 
 
 def _trajectory(tmp_path, name, close: bool):
-    sy = tank_system(2, R, [0.2, 0.1], [(np.zeros(3), [0.2, 0.1, 0.0], _const(0))],
+    sy = tank_system(2, R, [0.2, 0.1], [(np.zeros(3), [0.2, 0.1, 0.0], one_phase(0))],
                      [Phase("w", 1000.0)])
     T = 4 + gen.COINCIDENT_FRAMES
     xs = np.repeat(sy.x[None], T, axis=0).astype(np.float32)
@@ -81,7 +82,7 @@ def test_generate_refuses_a_trajectory_with_coincident_particles(tmp_path):
 def test_the_generate_limit_is_inside_the_validation_limit():
     """The validation rows ask more (no pair within 0.3 r in any frame) than generate
     refuses (a collapse: particles stuck within 0.05 r)."""
-    assert gen.COINCIDENT < cases.COINCIDENT == 0.3
+    assert gen.COINCIDENT < measures.COINCIDENT == 0.3
 
 
 def _rows(dim):
@@ -100,7 +101,7 @@ def _check(by):
                   "volume change light"):
             assert rows[q].passed, (ratio, q, rows[q].measured)
     closest = {k: v["closest pair over all frames [r]"].measured for k, v in by.items()}
-    if min(closest.values()) < cases.COINCIDENT:
+    if min(closest.values()) < measures.COINCIDENT:
         pytest.xfail(f"closest pair {closest} r: particles still meet where the pressure is "
                      "zero (docs/sph.md, 'High density ratios')")
 

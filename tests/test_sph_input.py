@@ -8,7 +8,7 @@ import pytest
 from dcdc.errors import DcdcError, SimulationDiverged
 from dcdc.particles import ParticleSystem, Phase
 from dcdc.sph import SPHConfig, Simulator
-from dcdc.sph.cases import tank_system
+from dcdc.sph.fixtures import tank_system
 
 
 def small_tank(dim=2):

@@ -155,7 +155,7 @@ def test_laplace_quick_2d_csf():
 
 
 def _closed_box(dim, r, boundary):
-    from dcdc.sph.cases import tank_system
+    from dcdc.sph.fixtures import tank_system
     W = 0.2
     sy = tank_system(dim, r, [W] * dim, [(np.zeros(3), [W] * dim + [0] * (3 - dim),
                                           lambda p: np.zeros(len(p), int))],
@@ -236,7 +236,7 @@ def test_background_pressure_lifts_the_csf_laplace_jump():
 
 # ---------------------------------------------------------------------------- "curvature" model
 def _curvature_fields(dim, densities=(1000.0, 1000.0), sigma=1.0):
-    from dcdc.sph.cases import drop_radius
+    from dcdc.sph.measures import drop_radius
     from dcdc.sph.interfaces import coefficients, curvature_acceleration, pair_curvature
     x, dist, phase, nbh, h, V0 = _lattice_drop(dim, R=0.09 if dim == 2 else 0.07)
     R = drop_radius(int(phase.sum()), V0, dim)
@@ -313,7 +313,7 @@ def test_curvature_model_separates_a_random_emulsion_without_blowing_up():
 def _layers(dim, size=None):
     """Two layers at rest in a closed tank (2:1, the interface at 0.1 m, r = 1.25 cm), by
     default 0.3 × 0.2 (× 0.1) m."""
-    from dcdc.sph.cases import tank_system
+    from dcdc.sph.fixtures import tank_system
     size = size or [0.3, 0.2] + ([0.1] if dim == 3 else [])
     return tank_system(dim, 0.0125, size, [(np.zeros(3), list(size) + [0] * (3 - dim),
                                             lambda p: (p[:, 1] > 0.1).astype(int))],
@@ -382,7 +382,7 @@ def test_a_particle_size_drop_leaves_the_floor_only_above_the_departure_bond_num
     eight, 20 none): the departure lies at Bo ≈ 3-5, Fritz's 3.5 within its noise. This is
     what keeps the 2-D cocktail's last oil particles on the glass (docs/sph.md, "Walls for the
     pairwise tension")."""
-    from dcdc.sph.cases import floor_drops_run
+    from dcdc.sph.experiments import floor_drops_run
     low = floor_drops_run(2, 2.0, T=2.0)
     assert low["drops"] == 4 and low["risen"] == 1.0
     assert floor_drops_run(2, 20.0, T=2.0)["risen"] == 0.0
@@ -417,7 +417,7 @@ def test_a_drop_from_90_degrees_dewets_to_youngs_120_degrees(theta):
     drop stopped at 110° (the mirrored system's factor two). Not tested because not true:
     from a 150° start the drop does not come back (138° for 90°, 167° for 120°; docs/sph.md,
     "Wetting")."""
-    from dcdc.sph.cases import sessile_drop_run
+    from dcdc.sph.experiments import sessile_drop_run
     m = sessile_drop_run(2, theta, duration=3.0)
     assert abs(m["theta"][-1] - theta) < 8.0, m["theta"]
     assert m["theta"][0] < m["theta"][-1]  # it moved there from 90°

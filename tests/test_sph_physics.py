@@ -6,7 +6,7 @@ from dcdc.geometry import fill_box, sample_walls
 from dcdc.geometry.shapes import box
 from dcdc.particles import ParticleSystem, Phase
 from dcdc.sph import SPHConfig, Simulator
-from dcdc.sph.cases import tank_system
+from dcdc.sph.fixtures import tank_system
 
 
 def free_blob(dim, ratio=10.0, seed=0):

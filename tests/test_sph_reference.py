@@ -5,7 +5,8 @@ import pytest
 from dcdc.errors import DcdcError
 from dcdc.particles import Phase
 from dcdc.sph import Simulator, SPHConfig
-from dcdc.sph.cases import EnergyBudget, run, tank_system
+from dcdc.sph.fixtures import tank_system
+from dcdc.sph.measures import EnergyBudget, run
 from dcdc.sph.reference import AUTO_REFERENCE as SHARE
 from dcdc.sph.reference import reference_acceleration, reference_pressure
 
@@ -316,7 +317,7 @@ def test_the_layered_reference_lets_a_deep_film_rise():
     twice as dense fluid the 2 cm film stays on the floor with the default reference (rise
     −0.3 mm, measured), and rises with reference_stratified, whose slabs take out the heavy
     layer's level (24 mm measured; docs/sph.md, "A reference that follows the layers")."""
-    from dcdc.sph.cases import FILM, film_rise
+    from dcdc.sph.experiments import FILM, film_rise
     run = film_rise(2, 0.005, SPHConfig(reference_stratified=True), FILM["deep"])
     assert run["rise"] > 0.01, run
 

@@ -37,9 +37,10 @@ def test_trapped_light_fluid_is_counted():
     import numpy as np
 
     from dcdc.particles import Phase
-    from dcdc.sph.cases import _closed_tank, trapped_below
+    from dcdc.sph.fixtures import closed_tank
+    from dcdc.sph.measures import trapped_below
     phases = [Phase("heavy", 1000.0), Phase("light", 500.0)]
-    sy, area = _closed_tank(2, True, 0.8, 0.4, phases, lambda p: np.where(p[:, 1] < 0.2, 0, 1), "t")
+    sy, area = closed_tank(2, True, 0.8, 0.4, phases, lambda p: np.where(p[:, 1] < 0.2, 0, 1), "t")
     V0 = (2 * sy.radius) ** 2
     assert trapped_below(sy, 1, [0], 0.0, area, V0) == 0.0  # settled: none below
     low = np.flatnonzero(sy.phase == 0)[:3]  # three floor particles turn light
@@ -69,9 +70,10 @@ def test_energy_budget_catches_created_energy():
 
     from dcdc.particles import Phase
     from dcdc.sph import Simulator
-    from dcdc.sph.cases import EnergyBudget, _closed_tank
+    from dcdc.sph.fixtures import closed_tank
+    from dcdc.sph.measures import EnergyBudget
     phases = [Phase("heavy", 1000.0), Phase("light", 100.0)]
-    sy, _ = _closed_tank(2, True, 0.8, 0.4, phases, lambda p: np.where(p[:, 0] < 0.4, 0, 1), "t")
+    sy, _ = closed_tank(2, True, 0.8, 0.4, phases, lambda p: np.where(p[:, 0] < 0.4, 0, 1), "t")
     sim = Simulator(sy, SPHConfig())
     honest = EnergyBudget(sim)
     for f in range(15):
@@ -98,7 +100,7 @@ def test_thin_film_rise_is_measured():
     by ~r/4 with the floor row, docs/sph.md "The floor row sits close to the wall"). At
     r = 5 mm, the film two particles thick: one particle thick (1 cm) it does not rise with
     the default layered reference (docs/sph.md, "A reference that follows the layers")."""
-    from dcdc.sph.cases import film_rise
+    from dcdc.sph.experiments import film_rise
     row = {r.quantity: r.measured for r in _thin_film_2d()}
     assert row["rise of the light phase [mm], shallow"] > 5.0, row
     assert row["light still in the film, shallow"] < 0.95, row
@@ -120,6 +122,6 @@ def test_thin_film_rises_alike_under_deep_and_shallow_fluid():
                    "heavy one in the incompressible packing (docs/sph.md, 'The film one "
                    "particle thick'); the cocktail's last oil is such a row")
 def test_film_one_row_thick_rises_alike_under_deep_and_shallow_fluid():
-    from dcdc.sph.cases import film_pair, film_ratio_ok
+    from dcdc.sph.experiments import film_pair, film_ratio_ok
     ratio = film_pair(2, 0.01, SPHConfig())["ratio"]
     assert film_ratio_ok(ratio), ratio

@@ -5,7 +5,7 @@ import pytest
 
 from dcdc.particles import Phase
 from dcdc.sph import volume_map as VM
-from dcdc.sph.cases import _const, tank_system
+from dcdc.sph.fixtures import one_phase, tank_system
 from dcdc.sph.kernels import lattice_volume
 
 R = 0.025
@@ -14,7 +14,7 @@ H = 4 * R
 
 def _tank(dim):
     size = [0.4, 0.4, 0.2][:dim]
-    return tank_system(dim, R, size, [(np.zeros(3), [0.4, 0.4, 0.2], _const(0))],
+    return tank_system(dim, R, size, [(np.zeros(3), [0.4, 0.4, 0.2], one_phase(0))],
                        [Phase("w", 1000.0)], wall_height=0.6)
 
 

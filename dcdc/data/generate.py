@@ -43,7 +43,7 @@ import numpy as np
 from ..errors import DcdcError
 from ..outputs import check_dir
 from ..particles import active_mask
-from ..scene.format import SEED_MAX
+from ..scene.schema import SEED_MAX
 from . import interrupt
 from .dataset import is_complete, removed_count
 from .jobs import (Job, _check_same_job, _write_json, check_duration, code_version, parse_shard,

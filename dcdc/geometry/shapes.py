@@ -3,7 +3,7 @@
 Each function returns an SDF ``f(x: [N, d]) -> [N]`` and works in 2-D and 3-D unless noted.
 Combine solids with :func:`union` (min) and :func:`subtract`. :func:`cylinder_bounds` and
 :func:`revolved_bounds` give the axis-aligned box of a shape (a scene without ``[domain]``
-derives its domain from its shapes' boxes, ``dcdc.scene.format.derive_domain``).
+derives its domain from its shapes' boxes, ``dcdc.scene.realize.derive_domain``).
 """
 from __future__ import annotations
 

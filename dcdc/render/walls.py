@@ -1,7 +1,7 @@
 """Triangle meshes of a trajectory's mesh walls (scenes with OBJ/STL/PLY walls, e.g. the
 random training scenes' rocks), rebuilt from the scene file stored in the trajectory
 (attributes ``scene_toml``, ``resolution``, ``source``): the same file, scale and
-translation as the wall particles were sampled from (:mod:`dcdc.scene.format`, walls of
+translation as the wall particles were sampled from (:mod:`dcdc.scene.realize`, walls of
 ``shape = "mesh"``). 3-D only: a 2-D trajectory's walls are a section, drawn as particles.
 """
 from __future__ import annotations

@@ -14,7 +14,9 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import DcdcError
-from .format import FRAME_DT, Scene, load, parse, validate  # noqa: F401
+from ..particles import FRAME_DT  # noqa: F401
+from .format import Scene, load, parse  # noqa: F401
+from .schema import validate  # noqa: F401
 
 SHOWCASES = ("cocktail", "hourglass", "canyon")
 

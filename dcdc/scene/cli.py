@@ -5,7 +5,7 @@ import click
 import numpy as np
 
 from ..outputs import check_file, write_text
-from .format import SEED_MAX
+from .schema import SEED_MAX
 
 
 def _summary(system, scene) -> str:

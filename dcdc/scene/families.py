@@ -274,7 +274,8 @@ def family_scene(family: str, seed: int, dim: int) -> dict:
     """One scene of ``family`` as a plain dict in the scene-file layout, its [solver]
     included; realised and checked (particle counts per scene and per phase, density
     ratio) before it is returned; a draw that fails is redrawn from the same stream."""
-    from .format import Scene, validate
+    from .format import Scene
+    from .schema import validate
     if family not in FAMILIES:
         raise DcdcError(f"unknown scene family {family!r} (families: {', '.join(FAMILIES)})")
     if dim not in (2, 3):

@@ -83,7 +83,8 @@ def _densities(rng, n, cfg):
 
 def random_scene(seed: int, cfg: RandomSceneConfig | None = None) -> dict:
     """A random scene as a plain dict in the scene-file layout (validated by realising it)."""
-    from .format import validate, Scene
+    from .format import Scene
+    from .schema import validate
     cfg = (cfg or RandomSceneConfig()).check()
     rng = np.random.default_rng([int(seed), 0xDCDC])
     d = cfg.dim

@@ -422,7 +422,7 @@ def _front_side(mesh, points) -> bool:
 def convert(data: dict, path: Path, output: Path | None, name: str | None = None):
     """The dcdc scene (:class:`~.common.Imported`) of the SPlisHSPlasH scene ``data``."""
     from ...geometry import mesh as gm
-    from ..format import _emitter_points, box_nozzle_axes
+    from ..nozzles import box_nozzle_axes, nozzle_points
     im = _Import(path, output)
     rd = im.rd
     blocks, models = rd.items(data, "FluidBlocks"), rd.items(data, "FluidModels")
@@ -585,7 +585,7 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
         if eps is not None:
             em["rate"] = per_layer * eps
         if caps.get(mid) is not None:  # maxEmitterParticles: the phase's emitters share it
-            _, _, births = _emitter_points({**em, "rate": em.get("rate")}, dim, sp)
+            _, _, births = nozzle_points({**em, "rate": em.get("rate")}, dim, sp)
             left = caps[mid] - emitted.get(mid, 0)
             if left < len(births):
                 layers = np.unique(births)  # more than one: a single layer fits or is refused
