@@ -170,11 +170,26 @@ def test_wall_penetrations():
     xs = np.arange(-10, 11) * 0.05
     wall = np.array([(a, -k * 0.05) for a in xs for k in range(3)])
     normals = np.tile([0.0, 1.0], (len(wall), 1))
+    # on the lattice one spacing up, far above, between the first two layers (nearest to the
+    # second), among the lower layers, touching a wall particle from the fluid's side
     fluid = np.array([[0.0, 0.05], [0.1, 0.2], [0.02, -0.03], [0.2, -0.07], [0.0, 0.005]])
     mask = M.inside_walls(fluid, wall, normals, spacing=0.05)
-    assert mask.tolist() == [False, False, True, True, True]
-    assert M.wall_penetrations(fluid, wall, normals, 0.05) == 3
+    assert mask.tolist() == [False, False, True, True, False]
+    assert M.wall_penetrations(fluid, wall, normals, 0.05) == 2
     assert M.wall_penetrations(fluid, wall[:0], normals[:0], 0.05) == 0
+
+
+def test_convex_corner_is_not_a_penetration():
+    # the rim of a wall one particle thick: its top (normals up) and its left face (normals
+    # left); a particle beside the face, just below the top, lies behind the top's plane
+    top = np.array([[0.0, 0.0], [0.05, 0.0]])
+    face = np.array([[0.0, -k * 0.05] for k in range(1, 6)])
+    wall = np.concatenate([top, face])
+    normals = np.concatenate([np.tile([0.0, 1.0], (2, 1)), np.tile([-1.0, 0.0], (5, 1))])
+    beside = np.array([[-0.045, -0.03]])  # in front of the face, 0.03 below the top's plane
+    assert not M.inside_walls(beside, wall, normals, 0.05).any()
+    through = np.array([[0.03, -0.03]])  # behind the face and below the top: inside
+    assert M.inside_walls(through, wall, normals, 0.05).all()
 
 
 def _basin(r=0.025):

@@ -63,7 +63,8 @@ def test_wall_weight_adds_the_term_and_zero_leaves_the_loss_as_it_was():
     batch = collate([_floor_scene([R, 0.0, 3 * R])], dtype=torch.float64)
     base, _ = unrolled_loss(net, batch, LossConfig(unroll=1, neighbor_scale=0.0))
     same, _ = unrolled_loss(net, batch, LossConfig(unroll=1, neighbor_scale=0.0, wall_weight=0.0))
-    more, _ = unrolled_loss(net, batch, LossConfig(unroll=1, neighbor_scale=0.0, wall_weight=2.0))
+    more, _ = unrolled_loss(net, batch, LossConfig(unroll=1, neighbor_scale=0.0, wall_weight=2.0,
+                                                wall_margin=1.5))
     assert float(same.detach()) == float(base.detach())
     assert float(more.detach()) > float(base.detach())
 

@@ -110,10 +110,10 @@ class LossConfig:
     step_weights: tuple[float, ...] = ()  # weight per unrolled step; () = 1/unroll each
     gamma: float = 0.5  # exponent of the distance ‖x − x_true‖^γ
     neighbor_scale: float = 40.0  # weight exp(−n_i / neighbor_scale); 0 = unweighted
-    # wall term (loss.py): weight of the penalty on predicted centres closer than
-    # wall_margin particle radii in front of the nearest wall particle (0 = off)
+    # wall term (loss.py): weight of the penalty (0 = off) on predicted centres closer than
+    # wall_margin particle radii in front of the nearest wall particle (0 = behind it)
     wall_weight: float = 0.0
-    wall_margin: float = 1.5
+    wall_margin: float = 0.0
 
     def validate(self):
         check(self.unroll >= 1, "loss.unroll", ">= 1", self.unroll)
