@@ -9,11 +9,12 @@ if they did not, it exits non-zero with that reason. Beside SPH the shipped lear
 of the dimension (``dcdc2d`` / ``dcdc3d``; ``--model M`` for a checkpoint or another shipped
 name, ``--model none`` for SPH alone) runs the same scene from the same start: its
 trajectory, a strip of SPH above the model and an SPH | model animation (same camera, the
-nearest-particle error per panel) and its numbers (steps before the guard stopped it, ms per
-step, per-phase centre-of-mass heights against SPH, layer purity, particles in walls, mean
-nearest-particle error, per-phase neighbour purity and height distance against SPH;
-definitions in docs/evaluation.md) are added, with a verdict: the model's final order
-heavy-below and layers like SPH's (:func:`verdict`); a model that fails it fails the demo.
+mean nearest-particle distance per panel, docs/render.md) and its numbers (steps before the
+guard stopped it, ms per step, and against SPH per phase the centre-of-mass height, the
+per-phase purity and the height distance, then the wall penetrations and the whole-rollout
+error; the names and definitions of docs/evaluation.md) are added, with a verdict: the
+model's stratification order (heavy below, by median height) and layers like SPH's
+(:func:`verdict`); a model that fails it fails the demo.
 ``--no-contact`` runs the network alone, without the SPH solver's wall contact. The default model is skipped with a note
 where the scene's particle radius or frame Δt is not the one it was trained for.
 ``--settle T`` starts the network from the SPH state at T s instead of the lattice start
@@ -21,8 +22,15 @@ where the scene's particle radius or frame Δt is not the one it was trained for
 checked before the simulation (an existing non-empty one only with ``--overwrite``, which
 empties it) and each result is written as soon as it exists, the SPH trajectory first; the
 report ``demo.txt`` comes last, so a folder without it holds an unfinished demo.
+
+The outputs are named after the scene: a built-in by its job name (``cocktail_2d_res2.h5``),
+a scene file by its file name (``--scene my.toml``: ``my_2d.h5``, ``my_2d.png``,
+``my_2d_dcdc.h5``, ...), whatever name the file's ``name`` key holds. Before each run the demo
+prints its size and an estimate of its time (:func:`estimate`).
 """
 from __future__ import annotations
+
+import math
 
 import click
 import numpy as np
@@ -33,6 +41,13 @@ from .particles import active_mask
 
 
 DEMO_SCENE = "cocktail"
+ORDER = "stratification order (heavy below)"  # docs/evaluation.md: order_ok, by median height
+# Seconds per fluid particle of one SPH substep (DFSPH, default settings) and of one step of
+# the shipped network (dcdc2d / dcdc3d, float32, wall contact on), by dimension: measured on
+# the cocktail (2-D at resolution 2, 1 696 particles; 3-D, 8 048) on 2 cores of an AMD EPYC
+# machine, 2 threads, load average 3.8-4.4 from other jobs (an idle machine is faster)
+SPH_S_PER_PARTICLE_SUBSTEP = {2: 9.2e-6, 3: 1.3e-5}
+NET_S_PER_PARTICLE_STEP = {2: 1.7e-5, 3: 2.2e-5}
 DEMO_RESOLUTION = 2.0  # the 2-D cocktail section at scale 1 holds only ~400 particles
 AUTO_MODEL = "auto"  # the shipped dcdc model of the scene's dimension
 
@@ -42,6 +57,40 @@ def default_resolution(scene: str, dim: int) -> float:
     holds ~400 particles, too few to show layers), 1 otherwise (the 3-D cocktail at scale 1
     already has 8 048 particles; ×2 would be 8× that, hours of SPH on 2 cores)."""
     return DEMO_RESOLUTION if (scene == DEMO_SCENE and dim == 2) else 1.0
+
+
+def output_name(scene: str, job_name: str, scene_name: str) -> str:
+    """The demo's output name: ``job_name`` (``NAME_2d[_resS]``) with the scene's ``name``
+    replaced by the file's name for a scene file (letters, digits, ``_`` and ``-`` kept)."""
+    from pathlib import Path
+
+    from .scene import builtin_names
+
+    if scene in builtin_names():
+        return job_name
+    stem = "".join(c if c.isalnum() or c in "_-" else "_" for c in Path(scene).stem) or "scene"
+    return stem + job_name[len(scene_name):]
+
+
+def duration_text(seconds: float) -> str:
+    """``seconds`` rounded for a reader: "about 40 s", "about 3 min", "about 2.5 h"."""
+    if seconds < 90:
+        return f"about {max(1, round(seconds, -1 if seconds >= 20 else 0)):g} s"
+    if seconds < 90 * 60:
+        return f"about {round(seconds / 60):g} min"
+    return f"about {seconds / 3600:.1f} h"
+
+
+def estimate(what: str, particles: int, work: int, seconds_per_particle: float,
+             span: str) -> str:
+    """The line printed before a run, e.g. "SPH: 1 696 particles, 15 s simulated (3 000
+    substeps), about 50 s on 2 cores": time = ``particles`` × ``work`` (SPH substeps or
+    network steps) × ``seconds_per_particle`` (:data:`SPH_S_PER_PARTICLE_SUBSTEP`,
+    :data:`NET_S_PER_PARTICLE_STEP`)."""
+    def n(v):
+        return f"{v:,}".replace(",", " ")
+    return (f"{what}: {n(particles)} particles, {span.format(n(work))}, "
+            f"{duration_text(seconds_per_particle * particles * work)} on 2 cores")
 
 
 def _active(traj, frame: int):
@@ -103,7 +152,8 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     from .render.export import write_points
     from .model.checkpoint import check_compatible, load_checkpoint
     from .render import animate, snapshot_strip
-    from .scene import parse
+    from .scene import get_scene, parse
+    from .sph.solver import rest_substep
 
     out = check_dir(out_dir, overwrite=overwrite)  # before any work: never after simulating
     net = None
@@ -124,6 +174,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
                      max_particles=max_particles)[0]
     job.max_particles = max_particles
     sc = parse(job.text(), job.source)
+    job.name = output_name(scene, job.name, sc.name)
     n_frames = int(round((duration or sc.duration) / sc.frame_dt))
     start = 0
     if settle is not None:
@@ -141,6 +192,10 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
             if not auto:
                 raise
             neural, net = f"no learned model: {e} (--model M runs another)", None
+    system = get_scene(scene).realize(int(dim), resolution, max_particles=max_particles)
+    substeps = n_frames * math.ceil(sc.frame_dt / rest_substep(sc.check_solver(), system) - 1e-9)
+    click.echo(estimate("SPH", system.n_fluid, substeps, SPH_S_PER_PARTICLE_SUBSTEP[int(dim)],
+                        f"{n_frames * sc.frame_dt:g} s simulated ({{}} substeps)"))
     click.echo(f"simulating {job.name} ({n_frames} frames of {sc.frame_dt} s) with the SPH solver")
     # each result is written as soon as it exists (an interrupted demo keeps the SPH run);
     # demo.txt, the report, comes last: a folder without it is an unfinished demo
@@ -171,10 +226,10 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
         ok = order_ok(traj)
         report += [f"{rec['particles']} fluid + {rec['walls']} wall particles, "
                    f"{rec['wall_time_s']:.1f} s wall for {n_frames * sc.frame_dt:.2f} s simulated",
-                   f"{'phase':<12}{'density':>10}{'median y start':>16}{'median y end':>14}"]
-        report += [f"{name:<12}{rho:>10g}{y0:>16.3f}{y1:>14.3f}"
+                   f"{'phase':<12}{'density':>10}{'median height [m]: start':>26}{'end':>8}"]
+        report += [f"{name:<12}{rho:>10g}{y0:>26.3f}{y1:>8.3f}"
                    for (name, rho, y0), (_, _, y1) in zip(rows0, rows1)]
-        report.append(f"final order heavy-below: {'yes' if ok else 'NO'}")
+        report.append(f"{ORDER}: {'yes' if ok else 'NO'}")
         neural_fail = None
         if net is not None:
             before = len(names)
@@ -189,7 +244,7 @@ def demo_command(scene, dim, resolution, duration, out_dir, overwrite, max_parti
     wrote("demo.txt")
     if not ok:
         heights = ", ".join(f"{n} {y:.3f} m" for n, _, y in rows1)
-        raise DcdcError(f"final phase order check failed: median heights (lightest first) {heights} "
+        raise DcdcError(f"{ORDER} failed: median heights (lightest first) {heights} "
                         "are not in density order, heavy below")
     if neural_fail is not None:
         raise DcdcError(f"the learned model {model_path} fails the demo's verdict against "
@@ -214,7 +269,7 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     its trajectory (the SPH frames before ``start`` first, so both files share frame times),
     a strip of SPH above the model and an SPH | model animation into ``tmp`` (names
     appended); returns (the report, None when the verdict passes or else why it fails).
-    The nearest-particle error is averaged over the network's frames only; the final state
+    The whole-rollout error is averaged over the network's frames only; the final state
     is compared with SPH's at the same time by :func:`dcdc.evaluate.scores.compare_states`.
     The verdict (:func:`verdict`) asks the right order and layers like SPH's."""
     import imageio.v3 as iio
@@ -224,12 +279,14 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     from .data.dataset import Dataset
     from .evaluate.rollout import NeuralSimulator, run, write_rollout
     from .evaluate.scores import compare_states
-    from .render.compare import mean_nearest_distance
+    from .metrics import nearest_error
     from .render.figures import Figure, strip_frames
     from .render.frames import default_camera
 
     sim = NeuralSimulator(net, traj.system(start), time=float(traj.time[start]), contact=contact)
     since = f" from the SPH state at {traj.time[start]:g} s" if start else ""
+    click.echo(estimate(f"learned model {model_path}", sim.system.n_fluid, n_frames - start,
+                        NET_S_PER_PARTICLE_STEP[traj.dim], "{} steps"))
     click.echo(f"simulating {traj.name} with the learned model {model_path} ({net.name}){since}")
     with tqdm(total=n_frames - start, unit="step") as bar:
         ro = run(sim, n_frames - start, progress=bar.update, interrupt_check=interrupt.check)
@@ -243,8 +300,7 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
                   steps_requested=n_frames - start)
     pred = Dataset(tmp / f"{name}.h5")[name]
     n = pred.n_frames
-    err = [mean_nearest_distance(traj.position[f], pred.position[f], 2 * traj.radius)
-           for f in range(start, n)]
+    err = [nearest_error(pred.position[f], traj.position[f]) for f in range(start, n)]
     fig = Figure.build([traj, pred], default_camera(traj, 360), None, 2, True)
     fig.labels = ["SPH", f"learned: {model_path}"]
     times = ",".join(f"{t:g}" for t in np.linspace(0.0, traj.time[n - 1], 4).round(2))
@@ -261,31 +317,32 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
                if contact else "the network alone (no wall contact)")
     lines = [f"learned model {model_path}{since}: {ro.steps} of {n_frames - start} steps "
              f"({stop}), {ro.ms_per_step:.1f} ms per step, {support}",
-             f"{'phase':<12}{'COM height':>12}{'':>9}{'':>9}{'purity':>8}{'':>9}{'height W1':>11}",
-             f"{'':<12}{'SPH':>12}{'learned':>9}{'rel. err':>9}{'SPH':>8}{'learned':>9}"
-             f"{'/ column':>11}"]
+             f"{'phase':<12}{'centre-of-mass height [m]':>30}{'per-phase purity':>18}"
+             f"{'height distance':>17}",
+             f"{'':<12}{'SPH':>12}{'learned':>9}{'error':>9}{'SPH':>8}{'learned':>10}"
+             f"{'/ column':>17}"]
     for k, p in enumerate(traj.phases):
         if np.isfinite(com_rel[k]):
             lines.append(f"{p.name:<12}{sph['com_height'][k]:>12.3f}"
                          f"{mine['com_height'][k]:>9.3f}{com_rel[k]:>9.3f}"
-                         f"{sph['purity_per_phase'][k]:>8.2f}{mine['purity_per_phase'][k]:>9.2f}"
-                         f"{mine['height_w1_rel'][k]:>11.3f}")
+                         f"{sph['purity_per_phase'][k]:>8.2f}{mine['purity_per_phase'][k]:>10.2f}"
+                         f"{mine['height_w1_rel'][k]:>17.3f}")
     worst = float(np.nanmax(com_rel)) if np.isfinite(com_rel).any() else float("nan")
-    lines.append(f"largest COM height error {worst:.3f}, particles in walls (largest per "
-                 f"step) {int(ro.in_walls.max()) if len(ro.in_walls) else 0}, mean "
-                 f"nearest-particle error {1e3 * float(np.mean(err)):.1f} mm")
+    lines.append(f"centre-of-mass height error {worst:.3f} (largest over phases), wall "
+                 f"penetrations {int(ro.in_walls.max()) if len(ro.in_walls) else 0} (largest "
+                 f"per step), whole-rollout error {1e3 * float(np.mean(err)):.1f} mm")
     why = verdict(mine, traj.phases)
-    lines.append(f"verdict: {'layers like SPH, final order heavy-below' if why is None else why}")
+    lines.append(f"verdict: {f'layers like SPH, {ORDER}: yes' if why is None else why}")
     return "\n".join(lines), why
 
 
 def verdict(state: dict, phases) -> str | None:
-    """None when a learned model's final state passes, else the reason: the final order
-    heavy-below (median heights) and layers like SPH's
+    """None when a learned model's final state passes, else the reason: the stratification
+    order (:data:`ORDER`, median heights) and layers like SPH's
     (:func:`dcdc.metrics.layers_like`: every phase's neighbour purity ≥ 0.9 × SPH's and its
     height distribution within 5 % of the column of SPH's; docs/evaluation.md, "Layers")."""
     if not state["order_ok"]:
-        return "final order heavy-below: NO"
+        return f"{ORDER}: NO"
     if state["layers_ok"]:
         return None
     from .metrics import HEIGHT_FRACTION, PURITY_RATIO

@@ -21,20 +21,20 @@ def test_demo_writes_complete_outputs(tmp_path):
     assert r.returncode == 2, r.stderr
     errors = [ln for ln in r.stderr.splitlines()  # without the tqdm bars (frames, steps)
               if "frame" not in ln and "step" not in ln and ln.strip()]
-    assert errors == [errors[0]] and errors[0].startswith("error: final phase order check failed"), r.stderr
+    assert errors == [errors[0]] and errors[0].startswith("error: stratification order (heavy below) failed"), r.stderr
     h5 = tmp_path / "cocktail_2d_res2.h5"
     assert is_complete(h5)
     traj = Dataset(tmp_path)["cocktail_2d_res2"]
     assert traj.n_frames == 6 and np.isfinite(traj.position).all()
     for name in ("cocktail_2d_res2.png", "cocktail_2d_res2.gif", "cocktail_2d_res2_final.ply"):
         assert (tmp_path / name).stat().st_size > 1000
-    assert "final order heavy-below: NO" in r.stdout
+    assert "stratification order (heavy below): NO" in r.stdout
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "cocktail_2d_res2.gif", "cocktail_2d_res2.h5", "cocktail_2d_res2.png",
         "cocktail_2d_res2_dcdc.h5", "cocktail_2d_res2_dcdc_compare.gif",
         "cocktail_2d_res2_dcdc_compare.png", "cocktail_2d_res2_final.ply", "demo.txt"]
     assert "learned model dcdc2d: 5 of 5 steps" in r.stdout
-    assert "final order heavy-below: NO" in (tmp_path / "demo.txt").read_text()
+    assert "stratification order (heavy below): NO" in (tmp_path / "demo.txt").read_text()
 
 
 @pytest.mark.slow
@@ -87,8 +87,8 @@ def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
     heights = {r[0]: [float(v) for v in r[1:]] for r in rows[2:]}
     for sph, mine, rel, *_ in heights.values():  # printed to 3 decimals: within their rounding
         assert abs(rel - abs(mine - sph) / sph) <= 0.001 / sph + 0.0005 + 1e-9
-    assert "largest COM height error" in stdout and "final order heavy-below: yes" in stdout
-    assert "verdict: layers like SPH, final order heavy-below" in stdout
+    assert "centre-of-mass height error" in stdout and "stratification order (heavy below): yes" in stdout
+    assert "verdict: layers like SPH, stratification order (heavy below): yes" in stdout
     assert "wall contact on:" in stdout
     for _, _, _, p_sph, p_mine, w1 in heights.values():  # purity in [0, 1], W1 a fraction
         assert 0 <= p_sph <= 1 and 0 <= p_mine <= 1 and 0 <= w1 < 0.05
@@ -206,7 +206,7 @@ def test_demo_verdict_names_what_fails():
     good = {"order_ok": True, "layers_ok": True, "purity_ratio": [1.0, 0.95],
             "height_w1_rel": [0.01, 0.02]}
     assert verdict(good, phases) is None
-    assert verdict({**good, "order_ok": False}, phases) == "final order heavy-below: NO"
+    assert verdict({**good, "order_ok": False}, phases) == "stratification order (heavy below): NO"
     why = verdict({**good, "layers_ok": False, "purity_ratio": [0.7, 0.95],
                    "height_w1_rel": [0.01, 0.08]}, phases)
     assert "more mixed than SPH" in why and "in oil" in why and "in water" in why
@@ -221,10 +221,51 @@ def test_demo_fails_when_the_learned_model_ends_in_the_wrong_order(tmp_path, cap
     import dcdc.demo as demo
 
     monkeypatch.setattr(demo, "_neural_beside",
-                        lambda *a, **k: ("learned model: stub", "final order heavy-below: NO"))
+                        lambda *a, **k: ("learned model: stub", "stratification order (heavy below): NO"))
     code, _, err = dcdc_output(["demo", "--scene", "lock_exchange", "--duration", "0.1",
                                 "--out", tmp_path / "d"], capsys)
     assert code == 2 and "the learned model dcdc2d fails the demo's verdict" in err
-    assert "final order heavy-below: NO" in err
+    assert "stratification order (heavy below): NO" in err
     assert [ln for ln in err.splitlines() if ln.startswith("error:")] == [err.splitlines()[-1]]
     assert (tmp_path / "d" / "lock_exchange_2d.h5").is_file()
+
+
+def test_demo_names_outputs_after_the_scene_file_and_estimates_first(tmp_path, capsys):
+    """--scene my.toml: every output is named after the file (my_2d.*), not after the
+    scene's name key (a copy of a built-in keeps the built-in's); before each run the demo
+    prints the particles, the work and an estimated time."""
+    from helpers import dcdc_output
+
+    from dcdc.scene import builtin_text
+
+    scene = tmp_path / "my.toml"
+    scene.write_text(builtin_text("lock_exchange"))
+    out = tmp_path / "d"
+    _, stdout, err = dcdc_output(["demo", "--scene", str(scene), "--dim", "2", "--duration",
+                                  "0.1", "--out", str(out)], capsys)
+    assert "Traceback" not in err
+    assert sorted(p.name for p in out.iterdir()) == [
+        "demo.txt", "my_2d.gif", "my_2d.h5", "my_2d.png", "my_2d_dcdc.h5",
+        "my_2d_dcdc_compare.gif", "my_2d_dcdc_compare.png", "my_2d_final.ply"]
+    n = f"{len(Dataset(out)['my_2d'].phase):,}".replace(",", " ")  # fluid particles
+    lines = stdout.splitlines()
+    sph = next(i for i, ln in enumerate(lines) if ln.startswith("SPH: "))
+    assert lines[sph].startswith(f"SPH: {n} particles, 0.1 s simulated (20 substeps), about ")
+    assert lines[sph].endswith(" s on 2 cores")
+    assert lines[sph + 1].startswith("simulating my_2d (5 frames")
+    net = next(i for i, ln in enumerate(lines) if ln.startswith("learned model dcdc2d: "))
+    assert lines[net].startswith(f"learned model dcdc2d: {n} particles, 5 steps, about ")
+    assert lines[net + 1].startswith("simulating my_2d with the learned model dcdc2d")
+
+
+def test_demo_estimate_and_output_name():
+    from dcdc.demo import duration_text, estimate, output_name
+
+    assert estimate("SPH", 2000, 3000, 1e-4, "15 s simulated ({} substeps)") == \
+        "SPH: 2 000 particles, 15 s simulated (3 000 substeps), about 10 min on 2 cores"
+    assert estimate("learned model dcdc2d", 1696, 750, 1.7e-5, "{} steps") == \
+        "learned model dcdc2d: 1 696 particles, 750 steps, about 20 s on 2 cores"
+    assert [duration_text(s) for s in (3, 47, 600, 7200)] == \
+        ["about 3 s", "about 50 s", "about 10 min", "about 2.0 h"]
+    assert output_name("cocktail", "cocktail_2d_res2", "cocktail") == "cocktail_2d_res2"
+    assert output_name("runs/my scene.toml", "hourglass_3d", "hourglass") == "my_scene_3d"

@@ -63,7 +63,9 @@ def _frame(cfg: dict, frames: int = 1, **tank):
 def test_substep_follows_cfl_speed_floor_and_dt_max():
     """Δt = min(dt_max, cfl·2r / max(|v|, speed_floor)) (docs/sph.md, "Substeps"): at
     rest with r = 2.5 cm the defaults give 5 ms, four substeps per 20 ms frame."""
-    assert _frame({})[1]["substeps"] == 4
+    from dcdc.sph.solver import rest_substep
+
+    assert _frame({})[1]["substeps"] == 4 and rest_substep(SPHConfig(), _tank()) == 0.005
     assert _frame({"speed_floor": 8.0})[1]["substeps"] == 8
     assert _frame({"cfl": 0.2})[1]["substeps"] == 8
     assert _frame({"dt_max": 0.002})[1]["substeps"] == 10

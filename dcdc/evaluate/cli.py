@@ -200,7 +200,7 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
             b.plot(c["time"], c["ke_pred"], label=label)
         first = next(iter(per_model.values()))["curves"]
         b.plot(first["time"], first["ke_true"], "k--", label="SPH (truth)")
-        a.set(xlabel="t [s]", ylabel="rollout error [mm]", title=f"{traj}: nearest-particle error")
+        a.set(xlabel="t [s]", ylabel="rollout error [mm]", title=f"{traj}: whole-rollout error")
         b.set(xlabel="t [s]", ylabel="kinetic energy [J]", title="kinetic energy")
         a.legend(fontsize=8)
         b.legend(fontsize=8)

@@ -90,9 +90,7 @@ class Simulator:
                      if cfg.reference_level is None else cfg.reference_level)
             self._reference = (rho_ref, level, 0.0)
             self._fill = level  # reference_surface: the level while no particle is at a surface
-        # Brackbill et al.'s capillary bound is the continuum models'; "pairwise" keeps its steps
-        self._capillary_dt = (interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * r)
-                              if cfg.interfacial_model in interfaces.CSF_MODELS else math.inf)
+        self._capillary_dt = capillary_dt(cfg, system)
         self.stats: dict = {}
         self.totals = {"frames": 0, "substeps": 0, "iterations": 0, "divergence_iterations": 0,
                        "max_density_error": 0.0, "removed": 0}
@@ -304,6 +302,24 @@ def _check_system(sy: ParticleSystem) -> None:
         raise DcdcError("death (removal) times contain NaN (inf = never removed)")
     sy.check_inside_domain()
     check_fluid_outside_walls(sy.x, sy.wall_x, sy.wall_n, sy.spacing)
+
+
+def capillary_dt(cfg: SPHConfig, system: ParticleSystem) -> float:
+    """Brackbill et al.'s capillary bound on the substep, Δt < sqrt(ρ̄ Δx³ / (2πσ)), for the
+    continuum tension models (:func:`dcdc.sph.interfaces.stable_dt`); "pairwise": inf."""
+    if cfg.interfacial_model not in interfaces.CSF_MODELS:
+        return math.inf
+    return interfaces.stable_dt(cfg.interfacial_tension, system.phases, 2.0 * system.radius)
+
+
+def rest_substep(cfg: SPHConfig, system: ParticleSystem) -> float:
+    """The DFSPH substep of a fluid slower than ``speed_floor`` (docs/sph.md, "Substeps"):
+    min(dt_max, cfl·2r / speed_floor, the capillary bound, sqrt(2·cfl·2r / |g|)); faster
+    flow takes shorter ones."""
+    dx = cfg.cfl * 2.0 * system.radius
+    dt = min(cfg.dt_max, dx / cfg.speed_floor, capillary_dt(cfg, system))
+    g = float(np.linalg.norm(system.gravity))
+    return min(dt, math.sqrt(2.0 * dx / g)) if g > 0 else dt
 
 
 def _auto_sound_speed(sy: ParticleSystem) -> float:
