@@ -90,6 +90,8 @@ def test_splishsplash_multiphase_imports_and_runs(tmp_path):
     d = sc.data
     assert {k: p["density"] for k, p in d["phases"].items()} == {"heavy": 2000, "light": 1000, "oil": 700}
     assert d["phases"]["heavy"]["viscosity"] == 0.01 and d["phases"]["light"]["viscosity"] == 1e-6
+    # no viscosityMethod, no viscosity: SPlisHSPlasH's default standard viscosity, 0.01
+    assert d["phases"]["oil"]["viscosity"] == 0.01 and "(oil): SPlisHSPlasH applies its default" in res.text
     box, rock = d["walls"]["UnitBox"], d["walls"]["SmallCube"]
     assert box["hollow"] is True and box["scale"] == [0.5, 0.4, 0.3]
     assert rock["hollow"] is False and rock["rotation_degrees"] == pytest.approx(45)
@@ -103,12 +105,14 @@ def test_splishsplash_multiphase_imports_and_runs(tmp_path):
                            "divergence_solve": True}
     text = "\n".join(res.warnings)
     for what in ("XSPH viscosity", "surface tension (method 2", "dynamic rigid body",
-                 "AnimationFields[0]", "viewer and export settings not used: Configuration.pause"):
+                 "AnimationFields[0]", "viewer and export settings not used: Configuration.pause",
+                 "emitter housing (cylinder 0.225 x 0.225 x 0.225 m"):
         assert what in text
-    assert len(res.warnings) == 5 and "unused" not in text
+    assert len(res.warnings) == 6 and "unused" not in text
     assert all(f"# warning: {w}" in res.text for w in res.warnings)
     s = sc.realize()
-    assert s.counts_per_phase() == {"heavy": 54, "light": 54 + 10, "oil": 16}  # 3·3·6, 2·2·4
+    # SPlisHSPlasH's blocks: round(L/2r) - 1 per axis, 2·2·5; the oil's mesh 2·2·4
+    assert s.counts_per_phase() == {"heavy": 20, "light": 20 + 10, "oil": 16}
     assert (s.birth > 0).sum() == 5  # the emitter's second layer
     run_sph(sc)
     assert sc.realize(dim=2).n_fluid > 0  # its z = 0 section too
@@ -150,7 +154,8 @@ def test_splishsplash_other_mappings(tmp_path):
         assert what in text
     assert "nozzle" not in text
     s = sc.realize()
-    assert s.n_fluid == 10 * 4 * 20 + 18  # the block; 3 layers of 3 x 2 (maxEmitterParticles 20)
+    # the block (round(L/2r) - 1 per axis); 3 layers of 3 x 2 (maxEmitterParticles 20)
+    assert s.n_fluid == 9 * 3 * 19 + 18
     assert np.allclose(np.unique(s.birth), [0.0, 0.05, 0.1])
     layer = s.x[s.birth == 0.05]
     assert np.allclose(layer[:, 0], 0.2) and np.allclose(np.ptp(layer[:, 1:], axis=0), [0.05, 0.1])
@@ -190,7 +195,7 @@ def test_splishsplash_sim2d_scene_is_2d(tmp_path):
     assert "domain" not in res.text.split("[phases")[0]
     s = sc.realize()
     assert s.dim == 2 and np.allclose(s.meta["scene_domain"], [[-0.5, 0], [0.5, 1]])
-    assert (s.birth == 0).sum() == 6 * 4 + 3 + 4  # the block, one layer of each nozzle
+    assert (s.birth == 0).sum() == 5 * 3 + 3 + 4  # the block, one layer of each nozzle
     first = s.x[s.birth == 0]
     assert np.allclose(np.sort(first[np.isclose(first[:, 0], 0.3), 1]), [0.525, 0.575, 0.625, 0.675])
     run_sph(sc)
@@ -225,7 +230,7 @@ def test_splishsplash_method_blocks_and_blocks_in_walls(tmp_path):
                             "Bender et al. 2017": {"vorticity": 0.1, "viscosityOmega": 0.05}}],
              "RigidBodies": [{"geometryFile": BOX}, {"geometryFile": CUBE, "translation": [0, -0.4, 0]}],
              "FluidBlocks": [{"id": "a", "start": [-0.45, -0.45, -0.45], "end": [-0.1, 0.0, 0.45]},
-                             {"id": "b", "start": [-0.05, -0.45, -0.05], "end": [0.3, -0.2, 0.05]},
+                             {"id": "b", "start": [-0.05, -0.45, -0.1], "end": [0.3, -0.2, 0.1]},
                              {"id": "b", "start": [-0.1, -0.5, -0.1], "end": [0.1, -0.3, 0.1]}]}
     src = tmp_path / "blocks.json"
     src.write_text(json.dumps(scene))
@@ -309,7 +314,7 @@ def test_cli_writes_toml_and_one_warning_line_per_item(tmp_path, capsys):
                                     capsys)
     assert code == 0 and out.exists()
     lines = err.strip().splitlines()
-    assert sum(ln.startswith("warning: ") for ln in lines) == 5
+    assert sum(ln.startswith("warning: ") for ln in lines) == 6
     assert lines[-1].startswith(f"wrote {out} (SPlisHSPlasH scene: 2 wall(s), 3 fluid block(s), 1 emitter")
     assert "../models/UnitBox.obj" not in out.read_text()  # two levels up: absolute
     code, _, err = dcdc_output(["scene", "import", SCENES / "splash_multiphase.json", "-o", out], capsys)

@@ -11,13 +11,27 @@ steps) and simulated in a child process, because the library
   which must not take the benchmark down with it.
 
 The child reports steps, mean time step, solver iterations (parsed from SPlisHSPlasH's own
-summary), wall time, the largest particle speed seen and the final phase centroids.
+summary), wall time, the largest particle speed seen, the final phase centroids and, at
+requested times, each fluid's particle count and centroid.
+
+A SPlisHSPlasH scene file runs the same way from the command line, from any working
+directory and virtual environment::
+
+    python -m dcdc.sph.splishsplash path/to/scene.json [result.json] [--stop-at 6] [--times 2,4,6]
+
+SPlisHSPlasH resolves a relative scene path, and looks for its ``resources/`` (the emitters'
+housings) next to the running executable: the scene path is made absolute first, and where
+the interpreter's folder lacks ``resources/`` (a virtual environment, whose interpreter links
+to the base one) the child runs a copy of the interpreter in a folder that links the installed
+package's ``resources/`` and ``data/``.
 """
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -34,10 +48,55 @@ GL_DISPATCH = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 EXPLODED_SPEED = 50.0  # m/s: no particle in our benchmark scenes moves this fast physically
 
 
+MISSING = "pysplishsplash is not installed (pip install 'dcdc[splash]')"
+
+
 def available() -> bool:
     """Whether ``pysplishsplash`` is installed (checked without importing it here)."""
     import importlib.util
     return importlib.util.find_spec("pysplishsplash") is not None
+
+
+def data_root() -> Path | None:
+    """The folder in which the installed ``pysplishsplash`` put SPlisHSPlasH's ``resources/``
+    and ``data/`` (its wheel: ``<prefix>/bin``), or None."""
+    import importlib.metadata
+    try:
+        files = importlib.metadata.distribution("pysplishsplash").files or []
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    for f in files:
+        if f.name == "EmitterBox.obj" and f.parent.name == "emitter_boundary":
+            root = Path(f.locate()).resolve().parent.parent.parent
+            if (root / "resources").is_dir():
+                return root
+    return None
+
+
+def interpreter(folder: Path) -> tuple[str, dict]:
+    """(python executable, environment additions) for the child: ``sys.executable`` where
+    SPlisHSPlasH finds its ``resources/`` next to the real interpreter, else a copy of the
+    interpreter in ``folder/bin`` beside links to the package's ``resources/`` and ``data/``,
+    set up as a virtual environment of the base interpreter that sees this ``sys.path``."""
+    real = Path(os.path.realpath(sys.executable))
+    root = data_root()
+    if root is None or (real.parent / "resources").is_dir():
+        return sys.executable, {}
+    home = Path(sys.base_prefix) / "bin"
+    if not (home / real.name).exists():
+        home = real.parent
+    bindir = folder / "bin"
+    bindir.mkdir(parents=True, exist_ok=True)
+    exe = bindir / real.name
+    shutil.copy2(real, exe)
+    (folder / "pyvenv.cfg").write_text(f"home = {home}\ninclude-system-site-packages = false\n")
+    for name in ("resources", "data"):
+        if (root / name).exists():
+            (bindir / name).symlink_to(root / name)
+    # this sys.path, led by the folder holding dcdc (an editable install's finder is a .pth hook)
+    paths = [str(Path(__file__).resolve().parents[2])] + [p for p in sys.path if p and os.path.isdir(p)]
+    libs = [str(real.parent.parent / "lib")] + [v for v in [os.environ.get("LD_LIBRARY_PATH")] if v]
+    return str(exe), {"PYTHONPATH": os.pathsep.join(paths), "LD_LIBRARY_PATH": os.pathsep.join(libs)}
 
 
 def phase_blocks(system: ParticleSystem) -> list[tuple[str, np.ndarray, np.ndarray]]:
@@ -98,7 +157,7 @@ def run_splishsplash(system: ParticleSystem, duration: float, solver: str = "IIS
     ``system.meta["container"]``.
     """
     if not available():
-        raise DcdcError("SPlisHSPlasH is not installed (pip install 'dcdc[splash]')")
+        raise DcdcError(MISSING)
     container = container if container is not None else system.meta.get("container")
     if container is None:
         raise DcdcError("the SPlisHSPlasH comparison needs the scene's container box")
@@ -110,28 +169,49 @@ def run_splishsplash(system: ParticleSystem, duration: float, solver: str = "IIS
         scene = os.path.join(tmp, "scene.json")
         with open(scene, "w") as f:
             json.dump(scene_json(system, container, duration, solver, mesh), f)
-        env = dict(os.environ)
+        result = run_scene(scene, timeout=timeout)
+    result["solver"] = solver
+    return result
+
+
+def run_scene(scene, stop_at: float | None = None, times=(), timeout: float = 1800.0) -> dict:
+    """Run the SPlisHSPlasH scene file ``scene`` in a child process (until ``stop_at``
+    seconds, else the scene's ``stopAt``) and return its stats (:func:`_child`) with a
+    ``status``: "ok", exploded, stopped by the ``timeout`` wall budget, or crashed with
+    the last line SPlisHSPlasH wrote. ``times``: simulated times at which each fluid's
+    particle count and centroid are recorded (``result["at"]``)."""
+    if not available():
+        raise DcdcError(MISSING)
+    scene = Path(scene).expanduser().resolve()  # SPlisHSPlasH resolves relative paths elsewhere
+    if not scene.is_file():
+        raise DcdcError(f"{scene}: no such scene file")
+    with tempfile.TemporaryDirectory(prefix="dcdc-splash-") as tmp:
+        exe, extra = interpreter(Path(tmp) / "python")
+        env = {**os.environ, **extra}
         if os.path.exists(GL_DISPATCH):
             env["LD_PRELOAD"] = (GL_DISPATCH + " " + env.get("LD_PRELOAD", "")).strip()
         out = os.path.join(tmp, "result.json")
         # the child stops itself after ``timeout`` wall seconds and reports how far it got
-        cmd = [sys.executable, "-m", "dcdc.sph.splishsplash", scene, out, str(timeout)]
+        cmd = [exe, "-m", "dcdc.sph.splishsplash", "--child", str(scene), out, "--budget", str(timeout)]
+        if stop_at is not None:
+            cmd += ["--stop-at", repr(float(stop_at))]
+        if len(times):
+            cmd += ["--times", ",".join(repr(float(t)) for t in times)]
         t0 = time.perf_counter()
         try:
-            proc = subprocess.run(cmd, env=env, capture_output=True, text=True,
+            proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tmp,
                                   timeout=timeout + 120)
         except subprocess.TimeoutExpired:
-            return {"solver": solver, "status": f"timed out after {timeout:.0f} s"}
+            return {"status": f"timed out after {timeout:.0f} s"}
         wall = time.perf_counter() - t0
         if proc.returncode != 0 or not os.path.exists(out):
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or [""]
-            return {"solver": solver, "status": f"crashed (exit {proc.returncode}) {tail[0][:120]}",
+            return {"status": f"crashed (exit {proc.returncode}) {tail[0][:160]}",
                     "process_wall_s": wall}
         with open(out) as f:
             result = json.load(f)
     its = re.findall(r"Average number: \w+ - iterations: ([0-9.eE+-]+)", proc.stdout)
     result["mean_iterations"] = float(its[0]) if its else None
-    result["solver"] = solver
     exploded = not np.isfinite(result["max_speed"]) or result["max_speed"] > EXPLODED_SPEED
     when = result.get("exploded_at_s")
     result["status"] = ("ok" if not exploded else
@@ -142,15 +222,45 @@ def run_splishsplash(system: ParticleSystem, duration: float, solver: str = "IIS
     return result
 
 
-def _child(scene_path: str, out_path: str, budget_s: float = float("inf")) -> None:
-    """Child-process entry: run the scene, write stats as JSON (see :func:`run_splishsplash`)."""
+def _fluids(sim) -> dict:
+    """Each fluid model's active particle count and centroid."""
+    out = {}
+    for k in range(sim.numberOfFluidModels()):
+        fm = sim.getFluidModel(k)
+        n = fm.numActiveParticles()
+        x = np.asarray(fm.getFieldBuffer("position"))[:n]
+        out[fm.getId()] = {"particles": int(n), "centroid": x.mean(0).tolist() if n else None,
+                           "density0": fm.getDensity0()}
+    return out
+
+
+def _boundary(sim) -> tuple[int, list]:
+    """(boundary particles, boundary kinds): particle boundaries (Akinci 2012) have
+    particles; volume and density maps (Bender 2019, Koschier 2017) have none."""
+    n, kinds = 0, []
+    for k in range(sim.numberOfBoundaryModels()):
+        bm = sim.getBoundaryModel(k)
+        kinds.append(type(bm).__name__)
+        count = getattr(bm, "numberOfParticles", None)
+        if count is not None:
+            n += int(count())
+    return n, kinds
+
+
+def _child(scene_path: str, out_path: str, budget_s: float = float("inf"),
+           stop_at: float | None = None, times=()) -> None:
+    """Child-process entry: run the scene, write stats as JSON (see :func:`run_scene`)."""
     import pysplishsplash as sph
 
     base = sph.Exec.SimulatorBase()
-    base.init(useGui=False, sceneFile=scene_path, outputDir=str(Path(out_path).parent / "out"))
+    # no cache: SPlisHSPlasH would write its volume maps into a Cache folder beside the scene
+    base.init(useGui=False, useCache=False, sceneFile=scene_path,
+              outputDir=str(Path(out_path).parent / "out"),
+              **({"stopAt": float(stop_at)} if stop_at is not None else {}))
     base.initSimulation()
     sim = sph.Simulation.getCurrent()
     dts, max_speed, exploded_at, budget_stop = [], [0.0], [None], [False]
+    pending, at = sorted(float(t) for t in times), []
 
     def speeds():
         for k in range(sim.numberOfFluidModels()):
@@ -162,6 +272,8 @@ def _child(scene_path: str, out_path: str, budget_s: float = float("inf")) -> No
     def on_step():
         tm = sph.TimeManager.getCurrent()
         dts.append(tm.getTimeStepSize())
+        while pending and tm.getTime() >= pending[0] - 1e-9:
+            at.append({"t": pending.pop(0), "time": tm.getTime(), "fluids": _fluids(sim)})
         if len(dts) % 10 == 0:
             max_speed[0] = max(max_speed[0], *speeds())
             if exploded_at[0] is None and not max_speed[0] <= EXPLODED_SPEED:
@@ -177,29 +289,64 @@ def _child(scene_path: str, out_path: str, budget_s: float = float("inf")) -> No
     base.runSimulation()
     wall = time.perf_counter() - t0
     max_speed[0] = max(max_speed[0], *speeds())
-    phases = {}
-    n_fluid = 0
-    for k in range(sim.numberOfFluidModels()):
-        fm = sim.getFluidModel(k)
-        n = fm.numActiveParticles()
-        n_fluid += n
-        x = np.asarray(fm.getFieldBuffer("position"))[:n]
-        phases[fm.getId()] = {"particles": int(n), "centroid": x.mean(0).tolist() if n else None,
-                              "density0": fm.getDensity0()}
+    phases = _fluids(sim)
     sim_time = sph.TimeManager.getCurrent().getTime()
-    n_boundary = sum(sim.getBoundaryModel(k).numberOfParticles()
-                     for k in range(sim.numberOfBoundaryModels()))
-    result = {"fluid_particles": n_fluid, "boundary_particles": int(n_boundary),
+    n_boundary, kinds = _boundary(sim)
+    result = {"fluid_particles": sum(p["particles"] for p in phases.values()),
+              "boundary_particles": n_boundary, "boundary_models": kinds,
               "steps": len(dts), "mean_dt": float(np.mean(dts)) if dts else None,
               "simulated_s": sim_time, "wall_s": wall,
               "wall_s_per_simulated_s": wall / sim_time if sim_time > 0 else None,
               "ms_per_step": 1e3 * wall / max(len(dts), 1),
               "max_speed": float(max_speed[0]), "exploded_at_s": exploded_at[0],
-              "budget_stop": budget_stop[0], "phases": phases}
+              "budget_stop": budget_stop[0], "phases": phases, "at": at}
     with open(out_path, "w") as f:
         json.dump(result, f)
     base.cleanup()
 
 
+def _times(text: str) -> list[float]:
+    try:
+        return [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a comma-separated list of times: {text!r}") from None
+
+
+def main(argv=None) -> int:
+    """``python -m dcdc.sph.splishsplash SCENE.json [RESULT.json]``: run a SPlisHSPlasH scene
+    file and write (or print) its stats as JSON; failures are one ``error:`` line."""
+    ap = argparse.ArgumentParser(prog="python -m dcdc.sph.splishsplash",
+                                 description="Run a SPlisHSPlasH scene file; stats as JSON.")
+    ap.add_argument("scene", help="SPlisHSPlasH scene JSON (any working directory)")
+    ap.add_argument("result", nargs="?", help="where to write the stats (default: print them)")
+    ap.add_argument("--stop-at", type=float, help="simulated seconds (default: the scene's stopAt)")
+    ap.add_argument("--times", type=_times, default=[],
+                    help="comma-separated times at which to record each fluid's centroid")
+    ap.add_argument("--budget", type=float, default=1800.0, help="wall seconds before stopping")
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    a = ap.parse_args(argv)
+    if not available():
+        print(f"error: {MISSING}", file=sys.stderr)
+        return 2
+    if a.child:
+        _child(a.scene, a.result, a.budget, a.stop_at, a.times)
+        return 0
+    try:
+        result = run_scene(a.scene, a.stop_at, a.times, a.budget)
+    except DcdcError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    text = json.dumps(result, indent=1)
+    if a.result:
+        from ..outputs import write_text
+        write_text(a.result, text + "\n")
+    else:
+        print(text)
+    if result["status"] != "ok":
+        print(f"error: SPlisHSPlasH {result['status']}", file=sys.stderr)
+        return 1
+    return 0
+
+
 if __name__ == "__main__":
-    _child(sys.argv[1], sys.argv[2], float(sys.argv[3]) if len(sys.argv) > 3 else float("inf"))
+    sys.exit(main())

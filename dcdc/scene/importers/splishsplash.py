@@ -18,21 +18,33 @@ What maps:
   ``maxEmitterParticles`` caps that phase's emitters. Newer files keep each force method's
   parameters in a block named for it (``"Standard viscosity": {"viscosity": ...}``): the
   chosen methods' blocks are read, and the newer method numbers apply (no XSPH viscosity).
+  SPlisHSPlasH's defaults apply where a material leaves them out (and to an id without a
+  material): ``viscosityMethod`` 1 (standard) with ``viscosity`` 0.01 m²/s, so such a phase
+  gets ν = 0.01 (a note in the TOML names it). Its standard viscosity acts between
+  particles of the same fluid only; dcdc's also between phases (a note when the scene has
+  more than one viscous phase).
 * ``RigidBodies`` (static; a dynamic one becomes a static wall, with a warning):
   ``geometryFile`` with ``scale`` (per axis), ``rotationAxis`` / ``rotationAngle``
   (radians), ``translation`` → a ``mesh`` wall. A closed mesh is a container (``hollow``)
   when ``mapInvert`` says so — with particle boundaries, or without ``mapInvert``, when most
   of the fluid (by volume) lies inside it — else a solid; an open mesh is a 4r shell on the side away from
   the fluid.
-* ``FluidBlocks``: ``start`` / ``end`` scaled and translated → a ``box`` block,
-  ``initialVelocity`` → velocity (a block reaching into a closed wall: a ``fill`` of its box
+* ``FluidBlocks``: ``start`` / ``end`` scaled and translated → a ``box`` block that holds the
+  particles SPlisHSPlasH samples there: along an edge of length L, round(L/2r) − 1
+  particles at spacing 2r from 2r inside ``start`` (its ``denseMode`` 0 rule; a block with at
+  most one per axis is empty there and left out here; the other dense modes are a warning
+  with both counts), on the points of dcdc's lattice (odd multiples of r) nearest them, up
+  to r nearer ``start`` (a note), ``initialVelocity`` → velocity (a block reaching into a closed wall: a ``fill`` of its box
   inside its container, without the particles in walls; one mostly in a wall: left out); ``FluidModels`` with a mesh ``particleFile`` (OBJ, PLY,
   STL, OFF) → a ``mesh`` block (scaled, rotated, translated).
 * ``Emitters``: position ``translation``, direction the first column of the rotation (or
   the older ``direction``), ``velocity`` → speed, ``emitStartTime`` / ``emitEndTime`` →
   start / stop, ``emitsPerSecond`` → rate; a circle of ``width`` w particles is a round
   nozzle of radius w·r, a box (``type`` 0) of w × h particles a box nozzle of w·2r × h·2r
-  (height side along the rotation's second column).
+  (height side along the rotation's second column). SPlisHSPlasH also places a static
+  housing (its ``EmitterBox.obj`` / ``EmitterCylinder.obj``) around each emitter, which
+  stays in the flow after the emitter stops: a warning naming its size (dcdc's nozzles have
+  no walls).
 * ``sim2D``: a 2-D scene (``dim = 2``, the plane z = 0; meshes are sectioned there, z
   components dropped). As SPlisHSPlasH does in 2-D, every emitter turns about z and is a
   segment of height (a circle: width) particles, a 2-D box nozzle.
@@ -122,9 +134,42 @@ FORCE_METHODS = {
     "surfaceTensionMethod": {1: "Becker & Teschner 2007", 2: "Akinci et al. 2013", 3: "He et al. 2014",
                              4: "Jeske et al. 2023", 5: "Zorilla, Ritter, et al. 2020"},
     "elasticityMethod": {1: "Becker et al. 2009", 2: "Peer et al. 2018", 3: "Kugelstadt et al. 2021"}}
+DEFAULT_VISCOSITY_METHOD, DEFAULT_VISCOSITY = 1, 0.01  # what SPlisHSPlasH applies unless told
 MATERIAL_SECTIONS = {"XSPH"} | {n for m in FORCE_METHODS.values() for n in m.values()}
 # parameters of methods dcdc warns about as a whole (their blocks are not checked key by key)
 FORCE_WARNED = {"vorticityMethod", "dragMethod", "surfaceTensionMethod", "elasticityMethod"}
+
+
+DENSE_MODES = {0: "regular", 1: "almost dense", 2: "dense"}
+
+
+def block_counts(lo, hi, r: float, mode: int = 0) -> np.ndarray:
+    """Particles per axis that SPlisHSPlasH samples in the fluid block [lo, hi] (3-D, after
+    scale and translation) of particle radius ``r``: round(L/s) − 1 along an edge of length
+    L at step s (2r; its denser modes step √3 r vertically, mode 2 also 2√6 r/3 along x,
+    and take 2r off x and z first). At most one along any axis: SPlisHSPlasH leaves the
+    block empty (in 2-D too, where it then keeps one layer in z)."""
+    d = np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64)
+    step = np.full(3, 2.0 * r)
+    if mode in (1, 2):
+        step[1] = math.sqrt(3.0) * r
+        if mode == 2:
+            step[0] = math.sqrt(6.0) * 2.0 * r / 3.0
+        d = d - np.array([step[0], 0.0, 2.0 * r])
+    return (np.floor(d / step + 0.5) - 1).astype(int)  # C's round: halves away from zero
+
+
+def emitter_housing(kind: int, width: int, height: int, r: float, particle_walls: bool) -> list:
+    """Size (along the jet, then across: height side, width side) of the static housing
+    SPlisHSPlasH places around an emitter (its ``Emitter::getSize``): 2h long (h = 4r, the
+    support radius) and a margin of 2r (1.25 · 2r with volume or density maps) around the
+    nozzle; a circle's housing is a cylinder (2.25× longer and wider with maps)."""
+    d, h = 2.0 * r, 4.0 * r
+    if kind == 0:
+        m = 2 * d if particle_walls else 2.5 * d
+        return [2 * h, height * d + m, width * d + m]
+    rad = 0.5 * width * d + d
+    return [2 * h, 2 * rad, 2 * rad] if particle_walls else [2.25 * h, 2.25 * rad, 2.25 * rad]
 
 
 def is_splishsplash(data) -> bool:
@@ -138,6 +183,7 @@ class _Import:
         self.rd = Reader(path.name)
         self.path, self.base, self.output = path, path.parent, output
         self.warnings: list[str] = []
+        self.notes: list[str] = []
         self.viewer: list[str] = []
 
     def warn(self, msg: str):
@@ -203,7 +249,8 @@ def _material(im: _Import, m: dict, where: str) -> tuple[dict, bool]:
     blocks = {k: rd.table(v, f"{where}.{k}") for k, v in m.items() if k in MATERIAL_SECTIONS}
     if not blocks:
         return flat, False
-    chosen = [("XSPH", False)] + [(FORCE_METHODS[key].get(rd.integer(flat, key, where, 0)),
+    default = {"viscosityMethod": DEFAULT_VISCOSITY_METHOD}  # SPlisHSPlasH's; the others: none
+    chosen = [("XSPH", False)] + [(FORCE_METHODS[key].get(rd.integer(flat, key, where, default.get(key, 0))),
                                    key in FORCE_WARNED) for key in FORCE_METHODS]
     for name, warned in chosen:
         if name in blocks:
@@ -243,8 +290,16 @@ def _phase(im: _Import, mid: str, where: str, m: dict, new: bool = False) -> tup
     rd = im.rd
     label = f"{where} ({mid})"
     phase = {"density": rd.number(m, "density0", where, 1000.0, positive=True)}
-    method = rd.integer(m, "viscosityMethod", where, 0)
+    # SPlisHSPlasH's defaults (FluidModel, Viscosity_Standard): method 1, coefficient 0.01
+    method = rd.integer(m, "viscosityMethod", where, DEFAULT_VISCOSITY_METHOD)
     nu = rd.number(m, "viscosity", where, None, nonneg=True)
+    if method == DEFAULT_VISCOSITY_METHOD and ("viscosityMethod" not in m or nu is None):
+        what = ("its default method (1, standard viscosity)" if "viscosityMethod" not in m
+                else "the standard viscosity")
+        if nu is None:
+            nu = DEFAULT_VISCOSITY
+            what += " with its default coefficient"
+        im.notes.append(f"{label}: SPlisHSPlasH applies {what}: ν = {nu:g} m²/s")
     if new and method and method not in FORCE_METHODS["viscosityMethod"]:
         im.warn(f"{label}: viscosity method {method} unknown; the phase keeps dcdc's default viscosity")
     elif new and method and nu is not None:  # XSPH is no viscosity method in these files
@@ -464,6 +519,7 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
 
     refs, weights = [], []  # points inside the fluid (which side of a wall it is on), volumes
     boxes = []  # (index into fluids, 3-D lo, hi) of the blocks
+    shifted = []  # blocks whose particles sit off SPlisHSPlasH's (dcdc's lattice)
     fluids = []
     for i, b in enumerate(blocks):
         where = f"FluidBlocks[{i}]"
@@ -479,8 +535,22 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
         if not (hi > lo).all():
             rd.fail(where, f"is empty (start {a}, end {e})")
         dense = rd.integer(b, "denseMode", where, 0)
+        n = block_counts(lo, hi, r, dense)
+        if (n <= 1).any():
+            im.warn(f"{where}: SPlisHSPlasH samples no particles in it ({' x '.join(map(str, n))} "
+                    "steps: at most one along an axis); left out")
+            continue
+        count = int(np.prod(n[:dim]))
         if dense:
-            im.warn(f"{where}: denseMode {dense} not mapped (dcdc samples every block on its lattice)")
+            ours = int(np.prod(np.floor((hi - lo)[:dim] / sp + 1e-9)))
+            im.warn(f"{where}: denseMode {dense} ({DENSE_MODES.get(dense, 'unknown')}) not mapped: "
+                    f"SPlisHSPlasH samples {count} particles, dcdc {ours} on its cubic lattice")
+        else:  # a box around as many points of dcdc's lattice, nearest SPlisHSPlasH's
+            first = r + sp * np.ceil((lo + sp - r) / sp - 0.5 - 1e-6)  # (odd multiples of r)
+            shift = np.abs(first - (lo + sp))[:dim].max()
+            if shift > 1e-9 * sp:
+                shifted.append(where)
+            lo, hi = first - r, first - r + n * sp
         if any(rd.vec3(b, "initialAngularVelocity", where, [0.0, 0.0, 0.0])):
             im.warn(f"{where}: initialAngularVelocity not mapped (dcdc blocks start with one velocity)")
         fluids.append({"phase": names[mid], "shape": "box", "min": lo[:dim].round(9).tolist(),
@@ -596,7 +666,15 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
                     continue
                 em["stop"] = round(float(layers[k - 1] + 0.5 * (layers[1] - layers[0])), 9)
                 births = births[:k * n_layer]
+                if left > k * n_layer:
+                    im.warn(f"{where}: SPlisHSPlasH emits {left} particles (maxEmitterParticles "
+                            f"{caps[mid]}), its last layer {left - k * n_layer} of {n_layer}; dcdc "
+                            f"emits whole layers: {k * n_layer}")
             emitted[mid] = emitted.get(mid, 0) + len(births)
+        size = emitter_housing(kind, wn, hn, r, particle_walls)
+        im.warn(f"{where}: SPlisHSPlasH's static emitter housing ({'box' if kind == 0 else 'cylinder'} "
+                f"{' x '.join(f'{v:.3g}' for v in size[:dim])} m, along the jet first, open towards it) "
+                "not mapped; it stays in the flow after the emitter stops")
         emitters.append(em)
         refs.append(pos)
         weights.append(0.0)
@@ -650,6 +728,13 @@ def convert(data: dict, path: Path, output: Path | None, name: str | None = None
                         "rigid bodies")
     notes = [f"duration {duration:g} s" + (" (Configuration.stopAt)" if stop_at and stop_at > 0
                                            else " (the scene sets no stopAt)")]
+    notes += im.notes
+    if shifted:
+        notes.append(f"{', '.join(shifted)}: as many particles as SPlisHSPlasH samples, on dcdc's "
+                     "lattice (odd multiples of r): up to r nearer start than SPlisHSPlasH's")
+    if sum(bool(p.get("viscosity")) for p in phases.values()) > 1:
+        notes.append("viscosity: SPlisHSPlasH's standard viscosity acts between particles of the "
+                     "same fluid only, dcdc's between phases too")
     if dim == 2:
         notes.append("a 2-D scene (Configuration.sim2D): the plane z = 0, where meshes are sectioned")
     # no [domain]: dcdc derives the box around walls and fluid (SPlisHSPlasH has no domain)
