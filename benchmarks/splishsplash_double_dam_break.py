@@ -62,6 +62,7 @@ def run_dcdc(scene: Path, times: list[float], tmp: Path) -> dict:
     from dcdc.scene import load
     from dcdc.scene.importers import import_scene
     from dcdc.sph import Simulator, SPHConfig
+    from dcdc.sph.splishsplash import floor_row_height
 
     toml = tmp / "scene.toml"
     res = import_scene(scene, toml)
@@ -81,7 +82,8 @@ def run_dcdc(scene: Path, times: list[float], tmp: Path) -> dict:
             sel = alive & (s.phase == k)
             fluids[ph.name] = {"particles": int(sel.sum()),
                                "com_y": float(s.x[sel, 1].mean()) if sel.any() else None}
-        at.append({"t": t, "fluids": fluids, "wall_s": time.perf_counter() - t0})
+        at.append({"t": t, "fluids": fluids, "wall_s": time.perf_counter() - t0,
+                   "floor_row_y": floor_row_height(s.x[alive, 1], s.radius)})
         print(f"dcdc: t = {t:g} s after {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     return {"status": "ok", "at": at, "wall_s": time.perf_counter() - t0,
             "import_warnings": res.warnings, "settings": cfg.to_dict(),
@@ -97,7 +99,8 @@ def run_splash(scene: Path, duration: float, times: list[float], budget: float) 
     at = [{"t": a["t"], "time": a["time"],
            "fluids": {k: {"particles": f["particles"],
                           "com_y": f["centroid"][1] if f["centroid"] else None}
-                      for k, f in a["fluids"].items()}} for a in r.get("at", [])]
+                      for k, f in a["fluids"].items()},
+           "floor_row_y": a.get("floor_row_y")} for a in r.get("at", [])]
     keep = ("status", "steps", "mean_dt", "simulated_s", "mean_iterations", "max_speed",
             "boundary_models")
     return {**{k: r.get(k) for k in keep}, "at": at, "wall_s": time.perf_counter() - t0}
@@ -106,27 +109,39 @@ def run_splash(scene: Path, duration: float, times: list[float], budget: float) 
 def rows(dcdc: dict | None, splash: dict | None) -> list[dict]:
     """Per time and fluid: both heights and counts, (dcdc − SPlisHSPlasH) / SPlisHSPlasH."""
     out = []
-    by_t = {a["t"]: a["fluids"] for a in (splash or {}).get("at", [])}
+    by_t = {a["t"]: a for a in (splash or {}).get("at", [])}
+    rel = lambda a, b: (a - b) / b if a is not None and b else None  # noqa: E731
     for a in (dcdc or {}).get("at", []):
         other = by_t.get(a["t"], {})
+        floor, floor_o = a.get("floor_row_y"), other.get("floor_row_y")
         for name, f in a["fluids"].items():
-            o = other.get(name, {})
+            o = other.get("fluids", {}).get(name, {})
             y, yo = f["com_y"], o.get("com_y")
+            above = y - floor if y is not None and floor is not None else None
+            above_o = yo - floor_o if yo is not None and floor_o is not None else None
             out.append({"t": a["t"], "fluid": name, "dcdc_com_y": y, "splishsplash_com_y": yo,
                         "dcdc_particles": f["particles"], "splishsplash_particles": o.get("particles"),
-                        "relative_difference": (y - yo) / yo if y is not None and yo else None})
+                        "relative_difference": rel(y, yo),
+                        "dcdc_floor_row_y": floor, "splishsplash_floor_row_y": floor_o,
+                        "relative_difference_above_floor_row": rel(above, above_o)})
     return out
 
 
 def table(rs: list[dict]) -> str:
-    lines = ["| t [s] | fluid | dcdc: particles, COM height [m] | SPlisHSPlasH | difference |",
-             "|---|---|---|---|---|"]
+    """Markdown: per time and fluid, particles and centre-of-mass height in each solver, the
+    relative difference, and that of the heights above each solver's floor row."""
+    lines = ["| t [s] | fluid | dcdc: particles, COM height [m] | SPlisHSPlasH | difference "
+             "| difference above the floor row |", "|---|---|---|---|---|---|"]
     f = lambda v, fmt: "–" if v is None else format(v, fmt)  # noqa: E731
+    pc = lambda v: "–" if v is None else format(100 * v, "+.1f") + " %"  # noqa: E731
     for r in rs:
         lines.append(f"| {r['t']:g} | {r['fluid']} | {f(r['dcdc_particles'], 'd')}, "
                      f"{f(r['dcdc_com_y'], '.3f')} | {f(r['splishsplash_particles'], 'd')}, "
-                     f"{f(r['splishsplash_com_y'], '.3f')} | "
-                     f"{'–' if r['relative_difference'] is None else format(100 * r['relative_difference'], '+.1f') + ' %'} |")
+                     f"{f(r['splishsplash_com_y'], '.3f')} | {pc(r['relative_difference'])} "
+                     f"| {pc(r['relative_difference_above_floor_row'])} |")
+    floors = {r["t"]: (r["dcdc_floor_row_y"], r["splishsplash_floor_row_y"]) for r in rs}
+    lines += ["", "floor row (mean height of the lowest particle row) [m], dcdc / SPlisHSPlasH: "
+              + ", ".join(f"{t:g} s: {f(a, '.4f')} / {f(b, '.4f')}" for t, (a, b) in floors.items())]
     return "\n".join(lines)
 
 

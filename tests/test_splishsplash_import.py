@@ -231,3 +231,9 @@ def test_benchmark_script_help():
     out = subprocess.run([sys.executable, str(root / "benchmarks" / "splishsplash_double_dam_break.py"),
                           "--duration", "0"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and out.stderr.strip() == "error: --duration must be > 0 (got 0)"
+
+
+def test_floor_row_height():
+    """The mean height of the particles less than a radius above the lowest one."""
+    assert ss.floor_row_height([0.2, 0.01, 0.03, 0.3], 0.025) == pytest.approx(0.02)
+    assert ss.floor_row_height([], 0.025) is None

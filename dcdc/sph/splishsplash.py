@@ -234,6 +234,19 @@ def _fluids(sim) -> dict:
     return out
 
 
+def floor_row_height(y: np.ndarray, radius: float) -> float | None:
+    """Mean height of the lowest particle row: the particles less than a radius above the
+    lowest one (``y``: heights of all fluid particles)."""
+    y = np.asarray(y, dtype=np.float64)
+    return float(y[y < y.min() + radius].mean()) if len(y) else None
+
+
+def _floor_row(sim) -> float | None:
+    ys = [np.asarray(sim.getFluidModel(k).getFieldBuffer("position"))[:sim.getFluidModel(k).numActiveParticles(), 1]
+          for k in range(sim.numberOfFluidModels())]
+    return floor_row_height(np.concatenate(ys), sim.getParticleRadius())
+
+
 def _boundary(sim) -> tuple[int, list]:
     """(boundary particles, boundary kinds): particle boundaries (Akinci 2012) have
     particles; volume and density maps (Bender 2019, Koschier 2017) have none."""
@@ -273,7 +286,8 @@ def _child(scene_path: str, out_path: str, budget_s: float = float("inf"),
         tm = sph.TimeManager.getCurrent()
         dts.append(tm.getTimeStepSize())
         while pending and tm.getTime() >= pending[0] - 1e-9:
-            at.append({"t": pending.pop(0), "time": tm.getTime(), "fluids": _fluids(sim)})
+            at.append({"t": pending.pop(0), "time": tm.getTime(), "fluids": _fluids(sim),
+                       "floor_row_y": _floor_row(sim)})
         if len(dts) % 10 == 0:
             max_speed[0] = max(max_speed[0], *speeds())
             if exploded_at[0] is None and not max_speed[0] <= EXPLODED_SPEED:
