@@ -23,8 +23,12 @@ file also yields its 2-D section: `--dim 2`).
 from __future__ import annotations
 
 import sys
-import tomllib
 from pathlib import Path
+
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser as a package
+    import tomli as tomllib
 
 import numpy as np
 
