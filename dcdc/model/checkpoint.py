@@ -157,6 +157,8 @@ def load_checkpoint(path, expect: str | None = None, dim: int | None = None,
     """(model, checkpoint dict). ``expect``/``dim``: fail unless the checkpoint matches."""
     ck = read_checkpoint(path)
     cfg = dict(ck["config"])
+    # a network saved before NetConfig.wall_far_faces existed saw every wall particle
+    cfg.setdefault("wall_far_faces", True)
     name, cdim = cfg.pop("name", None), cfg.pop("dim", None)
     if name not in NETWORKS:
         raise DcdcError(f"checkpoint {path} holds an unknown architecture {name!r} "

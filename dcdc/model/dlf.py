@@ -93,7 +93,8 @@ def convert(sd: dict):
 
     net = build_network("cconv", 3, density_input=False, particle_radius=PARTICLE_RADIUS,
                         radius_scale=RADIUS_SCALE, frame_dt=FRAME_DT, kernel_size=4,
-                        channels=(32, 64, 64), normalize=False, out_scale=1.0 / 128.0)
+                        channels=(32, 64, 64), normalize=False, out_scale=1.0 / 128.0,
+                        wall_far_faces=True)  # their network sees every wall particle in R
     c0 = SHAPES["conv0_fluid.bias"][0]
     # ours: [fluid 0:32, wall 32:64, dense 64:96] = theirs [32:64, 0:32, 64:96]
     perm = torch.cat([torch.arange(c0, 2 * c0), torch.arange(0, c0), torch.arange(2 * c0, 3 * c0)])
