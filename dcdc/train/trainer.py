@@ -293,10 +293,12 @@ class Trainer:
 
     def _initialise(self, init: str) -> None:
         """Fine-tuning (``model.init``): the weights of a checkpoint of the same network,
-        with a fresh optimizer and this run's schedule."""
+        with a fresh optimizer and this run's schedule. Which wall particles the network sees
+        (``wall_far_faces``) is this run's choice, not part of the weights."""
         ck = read_checkpoint(init)
         mine, theirs = self.net.config(), ck["config"]
-        diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+        diff = sorted(k for k in (set(mine) | set(theirs)) - {"wall_far_faces"}
+                      if mine.get(k) != theirs.get(k))
         if diff:
             k = diff[0]
             raise DcdcError(f"model.init: {init} holds another network ({k} = "
