@@ -62,7 +62,7 @@ def run_dcdc(scene: Path, times: list[float], tmp: Path) -> dict:
     from dcdc.scene import load
     from dcdc.scene.importers import import_scene
     from dcdc.sph import Simulator, SPHConfig
-    from dcdc.sph.splishsplash import floor_row_height
+    from dcdc.sph.splishsplash import floor_row_height, height_quantiles
 
     toml = tmp / "scene.toml"
     res = import_scene(scene, toml)
@@ -81,7 +81,8 @@ def run_dcdc(scene: Path, times: list[float], tmp: Path) -> dict:
         for k, ph in enumerate(s.phases):
             sel = alive & (s.phase == k)
             fluids[ph.name] = {"particles": int(sel.sum()),
-                               "com_y": float(s.x[sel, 1].mean()) if sel.any() else None}
+                               "com_y": float(s.x[sel, 1].mean()) if sel.any() else None,
+                               "y_quantiles": height_quantiles(s.x[sel, 1])}
         at.append({"t": t, "fluids": fluids, "wall_s": time.perf_counter() - t0,
                    "floor_row_y": floor_row_height(s.x[alive, 1], s.radius)})
         print(f"dcdc: t = {t:g} s after {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
@@ -98,7 +99,8 @@ def run_splash(scene: Path, duration: float, times: list[float], budget: float) 
     r = run_scene(scene, stop_at=duration, times=times, timeout=budget)
     at = [{"t": a["t"], "time": a["time"],
            "fluids": {k: {"particles": f["particles"],
-                          "com_y": f["centroid"][1] if f["centroid"] else None}
+                          "com_y": f["centroid"][1] if f["centroid"] else None,
+                          "y_quantiles": f.get("y_quantiles")}
                       for k, f in a["fluids"].items()},
            "floor_row_y": a.get("floor_row_y")} for a in r.get("at", [])]
     keep = ("status", "steps", "mean_dt", "simulated_s", "mean_iterations", "max_speed",

@@ -230,8 +230,17 @@ def _fluids(sim) -> dict:
         n = fm.numActiveParticles()
         x = np.asarray(fm.getFieldBuffer("position"))[:n]
         out[fm.getId()] = {"particles": int(n), "centroid": x.mean(0).tolist() if n else None,
-                           "density0": fm.getDensity0()}
+                           "density0": fm.getDensity0(), "y_quantiles": height_quantiles(x[:, 1])}
     return out
+
+
+QUANTILES = (0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0)
+
+
+def height_quantiles(y) -> list | None:
+    """Heights at the :data:`QUANTILES` of ``y`` (how a fluid's particles spread vertically)."""
+    y = np.asarray(y, dtype=np.float64)
+    return np.quantile(y, QUANTILES).tolist() if len(y) else None
 
 
 def floor_row_height(y: np.ndarray, radius: float) -> float | None:
