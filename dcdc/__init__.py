@@ -3,7 +3,7 @@
 ```python
 import dcdc
 scene = dcdc.load_scene("lock_exchange")          # built-in name, .toml path or TOML text
-truth = dcdc.sph.run(scene, dim=2, duration=1.0)  # the multiphase SPH solver
+truth = dcdc.run_sph(scene, dim=2, duration=1.0)  # the multiphase SPH solver
 pred = dcdc.simulate(dcdc.load_model("dcdc2d"), scene, dim=2, steps=50)
 ```
 (docs/api.md; the functions load lazily, so ``import dcdc`` stays fast.)

@@ -3,7 +3,7 @@
 ```python
 import dcdc
 scene = dcdc.load_scene("lock_exchange")          # built-in name, .toml path or TOML text
-truth = dcdc.sph.run(scene, dim=2, duration=1.0)  # the multiphase SPH solver
+truth = dcdc.run_sph(scene, dim=2, duration=1.0)  # the multiphase SPH solver
 model = dcdc.load_model("dcdc2d")                 # shipped name or checkpoint path
 pred = dcdc.simulate(model, scene, dim=2, steps=50)
 print(pred.position.shape, pred.heights(), pred.order_ok())
@@ -11,8 +11,8 @@ pred.save("pred.h5")                              # dcdc render / export read it
 ```
 
 Thin layers over the functions the command line uses (``dcdc demo``, ``dcdc generate``,
-``dcdc simulate``): :meth:`dcdc.scene.Scene.realize`, :class:`dcdc.sph.Simulator`,
-:func:`dcdc.model.checkpoint.load_checkpoint`,
+``dcdc simulate``): :meth:`dcdc.scene.Scene.realize`, :func:`dcdc.sph.run` (over
+:class:`dcdc.sph.Simulator`), :func:`dcdc.model.checkpoint.load_checkpoint`,
 :class:`dcdc.evaluate.rollout.NeuralSimulator` and :func:`dcdc.evaluate.rollout.run`.
 Both simulators return a :class:`Run`. Documented with a runnable example in docs/api.md.
 """
@@ -140,9 +140,9 @@ def run_sph(scene, dim: int | None = None, resolution: float = 1.0,
     length scale ``resolution``, for ``duration`` seconds (default: the scene's) in frames
     of the scene's ``frame_dt``, with the scene's ``[solver]`` table updated by ``solver``
     (keys of :class:`dcdc.sph.SPHConfig`). A diverging run raises
-    :class:`dcdc.errors.SimulationDiverged`. Also available as ``dcdc.sph.run``."""
+    :class:`dcdc.errors.SimulationDiverged`. The frames come from :func:`dcdc.sph.run`."""
     from .scene.budget import check_duration
-    from .sph import SPHConfig, Simulator
+    from .sph import SPHConfig, run
 
     sc = load_scene(scene)
     duration = sc.duration if duration is None else duration
@@ -154,18 +154,10 @@ def run_sph(scene, dim: int | None = None, resolution: float = 1.0,
     settings = {**sc.solver, **(solver or {})}
     cfg = SPHConfig.from_dict(settings)
     sc.check_solver()  # the tension tables' phase names
-    sim = Simulator(system, cfg)
-    xs = np.empty((n + 1,) + system.x.shape, dtype=np.float32)
-    vs = np.empty_like(xs)
-    xs[0], vs[0] = system.x, system.v
     bar = _progress(progress, n, "frame")
     t0 = _time.perf_counter()
     try:
-        for k in range(1, n + 1):
-            sim.advance(fdt)
-            xs[k], vs[k] = system.x, system.v
-            if bar is not None:
-                bar.update(1)
+        xs, vs, times = run(system, cfg, n, fdt, progress=None if bar is None else bar.update)
     finally:
         if bar is not None:
             bar.close()
@@ -174,7 +166,7 @@ def run_sph(scene, dim: int | None = None, resolution: float = 1.0,
     attrs = {"scene": sc.name, "scene_toml": sc.text, "scene_dim": sc.dim,
              "resolution": resolution, "frame_dt": fdt,
              "solver_settings": json.dumps(cfg.to_dict(), sort_keys=True), "wall_time_s": wall}
-    return Run(f"{sc.name}_{system.dim}d", xs, vs, fdt * np.arange(n + 1), system,
+    return Run(f"{sc.name}_{system.dim}d", xs, vs, times, system,
                f"dcdc.sph ({cfg.solver})", None, 1e3 * wall / max(n, 1), attrs)
 
 

@@ -29,6 +29,23 @@ def test_import_is_lazy_and_exposes_the_api():
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
 
 
+def test_sph_run_keeps_every_frame_of_a_system():
+    """``dcdc.sph.run`` in a fresh interpreter: a realised system advanced frame by frame, the
+    API layer (``dcdc.api``) left unimported; ``dcdc.run_sph`` gives the same frames."""
+    code = ("import sys, numpy as np, dcdc.sph; from dcdc.scene import get_scene; "
+            "system = get_scene('dam_break').realize(dim=2, resolution=0.5); "
+            "x0 = system.x.copy(); "
+            "pos, vel, t = dcdc.sph.run(system, dcdc.sph.SPHConfig(), frames=2, frame_dt=0.02); "
+            "assert 'dcdc.api' not in sys.modules, 'sph imports the API'; "
+            "assert pos.shape == (3,) + x0.shape and vel.shape == pos.shape; "
+            "assert pos.dtype == np.float32 and np.allclose(t, [0.0, 0.02, 0.04]); "
+            "assert np.array_equal(pos[0], x0.astype(np.float32)); "
+            "assert np.array_equal(pos[-1], system.x.astype(np.float32)); "
+            "import dcdc; r = dcdc.run_sph('dam_break', dim=2, resolution=0.5, duration=0.04); "
+            "assert np.array_equal(r.position, pos) and np.allclose(r.time, t)")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=300)
+
+
 def test_python_m_dcdc():
     r = subprocess.run([sys.executable, "-m", "dcdc", "--help"], capture_output=True,
                        text=True, timeout=120)
