@@ -32,7 +32,7 @@ if "NUMBA_THREADING_LAYER" not in _os.environ:
     if "numba" in _sys.modules:  # imported before dcdc: set its config directly
         _sys.modules["numba"].config.THREADING_LAYER = "workqueue"
 
-__version__ = "0.1.0"
+from .version import __version__  # noqa: E402
 
 _API = ("Run", "load_scene", "load_model", "run_sph", "rollout", "simulate")
 _SUBPACKAGES = ("api", "data", "evaluate", "geometry", "metrics", "model", "render", "scene",

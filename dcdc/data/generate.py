@@ -46,7 +46,8 @@ from ..particles import active_mask
 from ..scene.schema import SEED_MAX
 from . import interrupt
 from .dataset import is_complete, removed_count
-from .jobs import (Job, _check_same_job, _write_json, check_duration, code_version, parse_shard,
+from ..scene.budget import check_duration
+from .jobs import (Job, _check_same_job, _write_json, code_version, parse_shard,
                    family_jobs, random_jobs, run_job, scene_jobs)
 
 COINCIDENT = 0.05

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import DcdcError, SimulationDiverged
 from ..outputs import TMP_MARK, write_text
-from ..scene.budget import check_duration
+from ..scene.budget import check_run
 from . import interrupt
 from .dataset import write_trajectory
 
@@ -183,33 +183,6 @@ def parse_shard(shard: str | None) -> tuple[int, int]:
 
 
 # ------------------------------------------------------------------ one trajectory
-def check_run(scene, duration: float | None = None, source: str | None = None,
-              warn: bool = True) -> float:
-    """What a run of ``scene`` must pass before it starts (``dcdc generate`` and ``dcdc
-    scene show`` alike): it covers at least one frame, and no emitter starts after its end
-    (a warning, with ``warn``, when ``duration`` — ``--duration`` — overrides the scene's).
-    Returns the run's duration."""
-    run = duration if duration is not None else scene.duration
-    src = source or scene.source
-    check_duration(run, scene.frame_dt, "--duration" if duration is not None else f"{src}: duration")
-    if duration is None or warn:
-        check_emitters(scene, run, src, override=duration is not None)
-    return run
-
-
-def check_emitters(scene, duration: float, source: str, override: bool = False) -> None:
-    """An emitter that starts when the run is already over stores particles that are never
-    born: an error in the scene itself, a warning when ``--duration`` (``override``) cuts
-    a run short on purpose."""
-    for i, e in enumerate(scene.data["emitter"]):
-        if e["start"] >= duration:
-            msg = (f"{source}: emitter[{i}] starts at {e['start']:g} s, when the run "
-                   f"({duration:g} s) is over")
-            if not override:
-                raise DcdcError(f"{msg}: lower its start or lengthen the scene's duration")
-            click.echo(f"warning: {msg}; its particles stay unborn in this trajectory", err=True)
-
-
 def set_threads(threads: int) -> None:
     """Numba/OpenMP thread count of this (worker) process."""
     os.environ["NUMBA_NUM_THREADS"] = str(threads)

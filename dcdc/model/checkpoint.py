@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .. import __version__
+from ..version import __version__
 from ..errors import DcdcError
 from .networks import NETWORKS, CorrectionNet, NetConfig, build_network
 

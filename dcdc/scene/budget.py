@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 import os
 
+import click
+
 from ..errors import DcdcError
 from ..particles import FRAME_DT
 
@@ -154,3 +156,30 @@ def check_duration(duration: float | None, frame_dt: float = FRAME_DT, what: str
     if int(round(duration / frame_dt)) < 1:
         raise DcdcError(f"{what} {duration:g} s is shorter than one frame ({frame_dt:g} s): "
                         "nothing would be simulated")
+
+
+def check_run(scene, duration: float | None = None, source: str | None = None,
+              warn: bool = True) -> float:
+    """What a run of ``scene`` must pass before it starts (``dcdc generate`` and ``dcdc
+    scene show`` alike): it covers at least one frame, and no emitter starts after its end
+    (a warning, with ``warn``, when ``duration`` — ``--duration`` — overrides the scene's).
+    Returns the run's duration."""
+    run = duration if duration is not None else scene.duration
+    src = source or scene.source
+    check_duration(run, scene.frame_dt, "--duration" if duration is not None else f"{src}: duration")
+    if duration is None or warn:
+        check_emitters(scene, run, src, override=duration is not None)
+    return run
+
+
+def check_emitters(scene, duration: float, source: str, override: bool = False) -> None:
+    """An emitter that starts when the run is already over stores particles that are never
+    born: an error in the scene itself, a warning when ``--duration`` (``override``) cuts
+    a run short on purpose."""
+    for i, e in enumerate(scene.data["emitter"]):
+        if e["start"] >= duration:
+            msg = (f"{source}: emitter[{i}] starts at {e['start']:g} s, when the run "
+                   f"({duration:g} s) is over")
+            if not override:
+                raise DcdcError(f"{msg}: lower its start or lengthen the scene's duration")
+            click.echo(f"warning: {msg}; its particles stay unborn in this trajectory", err=True)

@@ -59,7 +59,7 @@ def show_command(scene, dim, resolution, image, overwrite, max_particles):
         check_image(image, overwrite)
     sc = get_scene(scene)
     sc.check_solver()
-    from ..data.jobs import check_run
+    from .budget import check_run
     check_run(sc)  # as dcdc generate does
     system = sc.realize(dim=dim, resolution=resolution, max_particles=max_particles)
     click.echo(_summary(system, sc))
