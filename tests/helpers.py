@@ -1,3 +1,4 @@
+import re
 """Shared test helpers: run the ``dcdc`` command line in-process."""
 from dcdc.cli import main
 
@@ -71,3 +72,29 @@ def format1_copy(src, dst) -> None:
                 if k not in FORMAT2_ONLY + ("complete",):
                     h.attrs[k] = v
             h.attrs["complete"] = 1  # last, as the writer did
+
+
+def assert_error_last_line(code, err, *words):
+    """A command's failure: exit 2, its last line ``error: ...`` holding ``words``, no traceback."""
+    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
+    assert code == 2, err
+    assert lines and lines[-1].startswith("error: "), err
+    assert not any("Traceback" in ln for ln in lines), err
+    for w in words:
+        assert w in lines[-1], (w, lines[-1])
+
+
+def norm_title(s: str) -> str:
+    """A doc section title as citations and headings are compared: spaces and backticks
+    folded, lower case, trailing punctuation dropped."""
+    return re.sub(r"[\s`]+", " ", s).strip().lower().rstrip(".:,?")
+
+
+def doc_titles(md) -> list[str]:
+    """Headings, and the bold or italic titles that open a paragraph, of a Markdown file."""
+    out = []
+    for line in md.read_text(encoding="utf-8").splitlines():
+        m = re.match(r"#+\s+(.*)", line) or re.match(r"(?:\*\*|\*)([^*]+?)(?:\*\*|\*)", line)
+        if m:
+            out.append(norm_title(m.group(1)))
+    return out

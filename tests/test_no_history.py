@@ -15,6 +15,7 @@ import re
 from pathlib import Path
 
 import pytest
+from helpers import doc_titles, norm_title
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -80,20 +81,6 @@ def test_the_scanner_finds_history():
 CITATION = re.compile(r'docs/(\w+)\.md((?:[,;:]?[ \t]*"[^"\n]*(?:\n[ \t]*#?[ \t]*[^"\n]*)?")+)')
 
 
-def _norm(s: str) -> str:
-    return re.sub(r"[\s`]+", " ", s).strip().lower().rstrip(".:,")
-
-
-def _titles(md: Path) -> list[str]:
-    """Headings, and the bold or italic titles that open a paragraph."""
-    out = []
-    for line in md.read_text(encoding="utf-8").splitlines():
-        m = re.match(r"#+\s+(.*)", line) or re.match(r"(?:\*\*|\*)([^*]+?)(?:\*\*|\*)", line)
-        if m:
-            out.append(_norm(m.group(1)))
-    return out
-
-
 def citations():
     """(file:line, doc, title) of every ``docs/X.md, "Title"`` in dcdc/."""
     for f in sorted((ROOT / "dcdc").rglob("*")):
@@ -114,10 +101,10 @@ def test_doc_citations_name_sections_that_exist():
     for where, doc, title in found:
         md = ROOT / "docs" / f"{doc}.md"
         if doc not in titles:
-            titles[doc] = _titles(md) if md.exists() else None
+            titles[doc] = doc_titles(md) if md.exists() else None
         if titles[doc] is None:
             bad.append(f"{where}: docs/{doc}.md does not exist")
-        elif not any(t.startswith(_norm(title)) for t in titles[doc]):
+        elif not any(t.startswith(norm_title(title)) for t in titles[doc]):
             bad.append(f'{where}: docs/{doc}.md has no section "{title}"')
     assert not bad, "citations of doc sections that do not exist:\n" + "\n".join(bad)
 

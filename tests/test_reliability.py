@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import dcdc, tank_toml
+from helpers import assert_error_last_line, dcdc, tank_toml
 
 from dcdc.data.dataset import Dataset
 
@@ -23,16 +23,6 @@ SAMPLE = ROOT / "data/sample/test2d"
 TRAJ = SAMPLE / "hourglass_2d.h5"
 MODEL = ROOT / "dcdc/assets/models/dcdc2d.pt"
 TINY = ROOT / "examples/train_2d_tiny.toml"
-
-
-
-def assert_one_line_error(code, err, *words):
-    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
-    assert code == 2, err
-    assert lines and lines[-1].startswith("error: "), err
-    assert not any("Traceback" in ln for ln in lines), err
-    for w in words:
-        assert w in lines[-1], (w, lines[-1])
 
 
 def leftovers(folder: Path) -> list[str]:
@@ -71,7 +61,7 @@ def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch,
     out = tmp_path / "out"
     out.mkdir()
     code, _, err = dcdc(capsys, *[str(a).format(o=out) for a in argv])
-    assert_one_line_error(code, err, "cannot write", name, "no space left")
+    assert_error_last_line(code, err, "cannot write", name, "no space left")
     assert leftovers(out) == []
     finished = [p for p in out.rglob("*") if p.is_file() and p.name != ".lock"]
     assert finished == [], finished
@@ -84,7 +74,7 @@ def test_full_disk_checked_before_writing_an_hdf5_file(tmp_path, capsys, monkeyp
     monkeypatch.setattr("dcdc.outputs.shutil.disk_usage",
                         lambda p: shutil._ntuple_diskusage(10**9, 10**9 - 1000, 1000))
     code, _, err = dcdc(capsys, "dataset", "merge", tmp_path / "m.h5", SAMPLE)
-    assert_one_line_error(code, err, "m.h5", "MiB, the device has 0.0 MiB free")
+    assert_error_last_line(code, err, "m.h5", "MiB, the device has 0.0 MiB free")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -126,7 +116,7 @@ def test_second_training_into_one_run_is_refused(tmp_path, capsys):
     with run_lock(run, "dcdc train"):
         code, _, err = dcdc(capsys, "train", TINY, "--set", "optim.steps=1", "--no-progress",
                             "--out", run)
-        assert_one_line_error(code, err, f"{run} is in use by another dcdc train "
+        assert_error_last_line(code, err, f"{run} is in use by another dcdc train "
                                          f"(pid {os.getpid()})")
         assert [p.name for p in run.iterdir()] == [".lock"]
     # released when the holder is done: the run goes ahead
@@ -174,11 +164,11 @@ def scene(tmp_path, name="tank", radius=0.025, seed=0) -> Path:
 def test_scene_values_that_failed_after_the_work(tmp_path, capsys, kwargs, words):
     f = scene(tmp_path, **kwargs)
     code, _, err = dcdc(capsys, "scene", "show", f)
-    assert_one_line_error(code, err, *words)
+    assert_error_last_line(code, err, *words)
     out = tmp_path / "ds"
     code, _, err = dcdc(capsys, "generate", f, "--simulator", "ballistic", "--no-progress",
                         "-o", out)
-    assert_one_line_error(code, err, *words)
+    assert_error_last_line(code, err, *words)
     assert not out.exists() or not any(out.iterdir())
 
 
@@ -188,7 +178,7 @@ def test_scene_values_that_failed_after_the_work(tmp_path, capsys, kwargs, words
 ])
 def test_seed_options_are_bounded(tmp_path, capsys, argv):
     code, _, err = dcdc(capsys, *[a.format(o=tmp_path) for a in argv])
-    assert_one_line_error(code, err, "--seed", "0<=x<=9223372036854775807")
+    assert_error_last_line(code, err, "--seed", "0<=x<=9223372036854775807")
     assert not (tmp_path / "ds").exists()
 
 
@@ -200,7 +190,7 @@ def test_report_file_checked_before_the_work(tmp_path, capsys, argv):
     """The message is the output check's: the work (minutes) never ran."""
     (tmp_path / "afile").write_text("x")
     code, out, err = dcdc(capsys, *[a.format(o=tmp_path) for a in argv])
-    assert_one_line_error(code, err, "afile", "is a file")
+    assert_error_last_line(code, err, "afile", "is a file")
     assert out == ""
 
 
@@ -209,14 +199,14 @@ def test_nesting_too_deep_to_read(tmp_path, capsys):
     deep = "[" * 100_000 + "]" * 100_000
     (tmp_path / "deep.toml").write_text(f'name = "a"\ndim = 2\nx = {deep}\n')
     code, _, err = dcdc(capsys, "scene", "show", tmp_path / "deep.toml")
-    assert_one_line_error(code, err, "deep.toml", "nested too deeply")
+    assert_error_last_line(code, err, "deep.toml", "nested too deeply")
     (tmp_path / "deep.json").write_text(deep)
     code, _, err = dcdc(capsys, "scene", "import", tmp_path / "deep.json", "-o",
                         tmp_path / "d.toml")
-    assert_one_line_error(code, err, "deep.json", "nested too deeply")
+    assert_error_last_line(code, err, "deep.json", "nested too deeply")
     (tmp_path / "cfg.toml").write_text(f"x = {deep}\n")
     code, _, err = dcdc(capsys, "train", tmp_path / "cfg.toml", "--out", tmp_path / "run")
-    assert_one_line_error(code, err, "cfg.toml", "nested too deeply")
+    assert_error_last_line(code, err, "cfg.toml", "nested too deeply")
     assert not (tmp_path / "run").exists()
 
 
@@ -263,7 +253,7 @@ def test_unusable_trajectory_is_one_line(tmp_path, capsys, bad_trajs, command, k
     argv = [a.format(t=bad_trajs[kind], o=out) for a in VIEWERS[command]]
     code, _, err = dcdc(capsys, *argv)
     n = Dataset(TRAJ)["hourglass_2d"].n_particles
-    assert_one_line_error(code, err, f"{kind}.h5", *(w.replace("{2n}", str(2 * n)) for w in words))
+    assert_error_last_line(code, err, f"{kind}.h5", *(w.replace("{2n}", str(2 * n)) for w in words))
     assert list(out.iterdir()) == []
 
 
@@ -285,7 +275,7 @@ def test_non_finite_positions_are_reported(tmp_path, capsys, bad_trajs, command)
 def test_render_sizes_are_bounded(tmp_path, capsys, args, words):
     out = tmp_path / "a.gif"
     code, _, err = dcdc(capsys, "render", TRAJ, "-o", out, "--no-progress", *args)
-    assert_one_line_error(code, err, *words)
+    assert_error_last_line(code, err, *words)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -302,7 +292,7 @@ def test_canvas_over_half_the_memory_is_refused(monkeypatch):
                                      ["scene", "random", "--seed", "1"]])
 def test_unknown_picture_format(tmp_path, capsys, command):
     code, out, err = dcdc(capsys, *command, "--image", tmp_path / "x.bmpx")
-    assert_one_line_error(code, err, "x.bmpx", "unknown picture format '.bmpx'", ".png")
+    assert_error_last_line(code, err, "x.bmpx", "unknown picture format '.bmpx'", ".png")
     assert out == "" and list(tmp_path.iterdir()) == []
 
 
@@ -317,7 +307,7 @@ def test_simulate_device_checked_like_train(tmp_path, capsys, device, words):
         pytest.skip("CUDA is available here")
     code, _, err = dcdc(capsys, "simulate", "--model", MODEL, "--scene", "lock_exchange",
                         "--steps", "2", "--device", device, "--out", tmp_path / "x.h5")
-    assert_one_line_error(code, err, *words)
+    assert_error_last_line(code, err, *words)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -326,7 +316,7 @@ def test_output_folder_that_is_a_symlink_loop(tmp_path, capsys):
     loop.symlink_to(loop)
     code, _, err = dcdc(capsys, "generate", "lock_exchange", "--simulator", "ballistic",
                         "-o", loop)
-    assert_one_line_error(code, err, "symbolic link", "leads nowhere")
+    assert_error_last_line(code, err, "symbolic link", "leads nowhere")
 
 
 # ------------------------------------------------------------------ no silent wrong result
@@ -337,7 +327,7 @@ def test_mesh_with_a_nan_vertex_is_refused(tmp_path, capsys):
     lines[k] = "v nan 0.0 0.1"
     (tmp_path / "pillar.obj").write_text("\n".join(lines) + "\n")
     code, _, err = dcdc(capsys, "scene", "show", tmp_path / "s.toml")
-    assert_one_line_error(code, err, "pillar.obj", "1 vertex(es)", "not a finite number")
+    assert_error_last_line(code, err, "pillar.obj", "1 vertex(es)", "not a finite number")
 
 
 @pytest.mark.parametrize("argv", [
@@ -349,20 +339,20 @@ def test_mesh_with_a_nan_vertex_is_refused(tmp_path, capsys):
 ])
 def test_nan_particle_budget_is_refused(tmp_path, capsys, argv):
     code, _, err = dcdc(capsys, *[str(a).format(o=tmp_path) for a in argv])
-    assert_one_line_error(code, err, "--max-particles must be a number > 0")
+    assert_error_last_line(code, err, "--max-particles must be a number > 0")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_nan_particle_budget_from_the_environment(capsys, monkeypatch):
     monkeypatch.setenv("DCDC_MAX_PARTICLES", "nan")
     code, _, err = dcdc(capsys, "scene", "show", "lock_exchange")
-    assert_one_line_error(code, err, "DCDC_MAX_PARTICLES must be a number > 0")
+    assert_error_last_line(code, err, "DCDC_MAX_PARTICLES must be a number > 0")
 
 
 def test_sph_settings_checked_with_the_ballistic_simulator(tmp_path, capsys):
     code, _, err = dcdc(capsys, "generate", "lock_exchange", "--simulator", "ballistic",
                         "--sph", "cfl=abc", "-o", tmp_path / "ds")
-    assert_one_line_error(code, err, "sph.cfl must be a float")
+    assert_error_last_line(code, err, "sph.cfl must be a float")
     assert not (tmp_path / "ds").exists()
 
 
@@ -375,7 +365,7 @@ def test_sph_settings_checked_with_the_ballistic_simulator(tmp_path, capsys):
 ])
 def test_usage_errors_are_one_line(capsys, argv, words):
     code, out, err = dcdc(capsys, *argv)
-    assert_one_line_error(code, err, *words)
+    assert_error_last_line(code, err, *words)
     assert len(err.strip().splitlines()) == 1 and "Usage:" not in err and out == ""
 
 
@@ -389,7 +379,7 @@ def test_fluid_far_outside_the_domain_is_called_that(tmp_path, capsys):
     f.write_text(f.read_text().replace("min = [0.1, 0.1]\nmax = [0.5, 0.5]",
                                        "min = [5.1, 5.1]\nmax = [5.5, 5.5]"))
     code, _, err = dcdc(capsys, "scene", "show", f)
-    assert_one_line_error(code, err, "fluid[0]", "outside the domain")
+    assert_error_last_line(code, err, "fluid[0]", "outside the domain")
 
 
 EMITTER_AFTER_THE_END = """
@@ -414,7 +404,7 @@ def test_scene_show_refuses_what_generate_refuses(tmp_path, capsys, edit, words)
     for argv in (["scene", "show", f],
                  ["generate", f, "--simulator", "ballistic", "-o", tmp_path / "ds"]):
         code, _, err = dcdc(capsys, *argv)
-        assert_one_line_error(code, err, *words)
+        assert_error_last_line(code, err, *words)
 
 
 def test_file_held_by_a_writer_is_not_called_corrupt(tmp_path, capsys):
@@ -432,7 +422,7 @@ def test_file_held_by_a_writer_is_not_called_corrupt(tmp_path, capsys):
         holder.wait()
     if "unable to lock" in err or code == 0:
         pytest.skip("HDF5 file locking is off here")
-    assert_one_line_error(code, err, "another process has it open for writing")
+    assert_error_last_line(code, err, "another process has it open for writing")
     assert "corrupt" not in err
 
 
@@ -442,7 +432,7 @@ def test_file_without_trajectory_groups(tmp_path, capsys):
         for i in range(9):
             f.create_dataset(f"d{i}", data=np.zeros(3))
     code, _, err = dcdc(capsys, "dataset", "info", tmp_path / "x.h5")
-    assert_one_line_error(code, err, "not a dcdc dataset", "d0, d1, d2, …",
+    assert_error_last_line(code, err, "not a dcdc dataset", "d0, d1, d2, …",
                           "not trajectory groups")
 
 
@@ -464,7 +454,7 @@ def test_merge_into_a_folder_on_a_full_disk_leaves_no_folder(tmp_path, capsys, m
     monkeypatch.setattr(shutil, "copyfile", _disk_full)
     out = tmp_path / "merged"
     code, _, err = dcdc(capsys, "dataset", "merge", out, SAMPLE)
-    assert_one_line_error(code, err, f"cannot write {out}: no space left")
+    assert_error_last_line(code, err, f"cannot write {out}: no space left")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -524,7 +514,7 @@ def test_training_on_a_diverged_trajectory_names_it(tmp_path, capsys):
                 f[name]["position"][...] = x
     code, _, err = dcdc(capsys, "train", TINY, "--set", f"data.train={str(data)!r}",
                         "--set", "optim.steps=1", "--no-progress", "--out", tmp_path / "run")
-    assert_one_line_error(code, err, str(data), "non-finite positions", "frame",
+    assert_error_last_line(code, err, str(data), "non-finite positions", "frame",
                           "a diverged run")
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helpers import dcdc
+from helpers import assert_error_last_line, dcdc
 
 from dcdc.data.dataset import Dataset, write_trajectory
 
@@ -17,15 +17,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "data/sample"
 TRAIN, TEST = SAMPLE / "train2d", SAMPLE / "test2d"
 MODEL = ROOT / "dcdc/assets/models/dcdc2d.pt"
-
-
-def assert_one_line_error(code, err, *words):
-    lines = [ln for ln in err.strip().splitlines() if ln.strip()]
-    assert code == 2, err
-    assert lines and lines[-1].startswith("error: "), err
-    assert not any("Traceback" in ln for ln in lines), err
-    for w in words:
-        assert w in lines[-1], (w, lines[-1])
 
 
 def _disk_full(*_):
@@ -58,7 +49,7 @@ def test_parent_folder_reports_a_corrupt_trajectory_of_a_set(tmp_path, capsys):
         fh.seek(chunk.byte_offset)
         fh.write(b"\x55" * (chunk.size // 2))
     code, out, err = dcdc(capsys, "dataset", "info", "--verify", tmp_path)
-    assert_one_line_error(code, err, "1 corrupt trajectory", "hourglass_2d")
+    assert_error_last_line(code, err, "1 corrupt trajectory", "hourglass_2d")
     assert "verify      2 checksummed and intact, 1 CORRUPT" in out
     assert "verify      3 checksummed and intact" in out  # the other set is still described
 
@@ -86,7 +77,7 @@ def test_lagrangebench_export_on_a_full_disk_leaves_nothing(tmp_path, capsys, mo
     monkeypatch.setattr("dcdc.outputs._sync", _disk_full)
     out = tmp_path / "2D_DCD"
     code, _, err = dcdc(capsys, "dataset", "export-lagrangebench", "--train", TRAIN, "-o", out)
-    assert_one_line_error(code, err, f"cannot write {out / 'train.h5'}", "no space left")
+    assert_error_last_line(code, err, f"cannot write {out / 'train.h5'}", "no space left")
     assert _files(tmp_path) == [] and opened == []
 
 
@@ -95,7 +86,7 @@ def test_lagrangebench_split_larger_than_memory_is_refused_before_writing(tmp_pa
     monkeypatch.setattr("dcdc.scene.budget.physical_memory", lambda: 2.0 * 2**20)
     code, _, err = dcdc(capsys, "dataset", "export-lagrangebench", "--train", TRAIN, "-o",
                         tmp_path / "lb")
-    assert_one_line_error(code, err, "the train split (3 trajectories of 51 frames",
+    assert_error_last_line(code, err, "the train split (3 trajectories of 51 frames",
                           "more than half of this machine's 0.0 GiB")
     assert _files(tmp_path) == []
 
@@ -140,7 +131,7 @@ def test_json_report_on_a_full_disk_is_one_line(tmp_path, capsys, monkeypatch, c
     monkeypatch.setattr("dcdc.outputs._sync", _disk_full)
     report = tmp_path / "r.json"
     code, _, err = dcdc(capsys, *[a.format(j=report) for a in argv])
-    assert_one_line_error(code, err, f"cannot write {report}", "no space left")
+    assert_error_last_line(code, err, f"cannot write {report}", "no space left")
     assert _files(tmp_path) == []
 
 
@@ -163,7 +154,7 @@ def test_json_report_path_checked_before_the_work(tmp_path, capsys, monkeypatch,
     monkeypatch.setattr(target, lambda *a, **k: ran.append(1))
     (tmp_path / "afile").write_text("x")
     code, out, err = dcdc(capsys, *[a.format(j=tmp_path / "afile" / "r.json") for a in argv])
-    assert_one_line_error(code, err, "afile", "is a file")
+    assert_error_last_line(code, err, "afile", "is a file")
     assert ran == [] and out == ""
 
 
@@ -204,7 +195,7 @@ def test_one_frame_trajectory_is_named_as_such(tmp_path, capsys, one_frame, argv
     out = tmp_path / "out"
     out.mkdir()
     code, _, err = dcdc(capsys, *[str(a).format(d=one_frame, o=out) for a in argv])
-    assert_one_line_error(code, err, ONE_FRAME)
+    assert_error_last_line(code, err, ONE_FRAME)
     assert "--start-frame" not in err or "--steps" in err
     assert list(out.iterdir()) == []
 
@@ -230,7 +221,7 @@ def test_one_frame_trajectory_rolls_out_with_steps(tmp_path, capsys, one_frame):
 ])
 def test_start_frame_messages(tmp_path, capsys, argv, words):
     code, _, err = dcdc(capsys, *[str(a).format(o=tmp_path) for a in argv])
-    assert_one_line_error(code, err, *words)
+    assert_error_last_line(code, err, *words)
     assert list(tmp_path.iterdir()) == []
 
 

@@ -13,6 +13,8 @@ import fnmatch
 import re
 from pathlib import Path
 
+from helpers import doc_titles, norm_title
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 INDEX = RESULTS / "README.md"
@@ -61,20 +63,6 @@ def test_every_row_names_existing_files():
     assert not stale, f"benchmarks/results/README.md lists files that do not exist: {stale}"
 
 
-def _norm(s: str) -> str:
-    return re.sub(r"[\s`]+", " ", s).strip().lower().rstrip(".:,?")
-
-
-def _titles(md: Path) -> list[str]:
-    """Headings, and the bold or italic titles that open a paragraph."""
-    out = []
-    for line in md.read_text(encoding="utf-8").splitlines():
-        m = re.match(r"#+\s+(.*)", line) or re.match(r"(?:\*\*|\*)([^*]+?)(?:\*\*|\*)", line)
-        if m:
-            out.append(_norm(m.group(1)))
-    return out
-
-
 def test_cited_sections_exist():
     bad, n = [], 0
     for _, cited in _rows():
@@ -83,10 +71,10 @@ def test_cited_sections_exist():
             if not md.exists():
                 bad.append(f"docs/{doc}.md does not exist")
                 continue
-            have = _titles(md)
+            have = doc_titles(md)
             for t in re.findall(r'"([^"]+)"', titles):
                 n += 1
-                if not any(h.startswith(_norm(t)) for h in have):
+                if not any(h.startswith(norm_title(t)) for h in have):
                     bad.append(f'docs/{doc}.md has no section "{t}"')
     assert n > 30  # the parser still sees the citations
     assert not bad, "benchmarks/results/README.md cites sections that do not exist:\n" + "\n".join(bad)

@@ -57,6 +57,7 @@ import torch
 from ..errors import DcdcError
 from ..neighbors import Neighbors, radius_search
 from . import fused as _fused
+from .fused import _spread_row
 
 DEFAULT_CPU_BACKEND = "fused" if _fused.AVAILABLE else "numba"  # what "auto" means on a CPU
 CHUNK_BYTES = 8 << 20  # working-buffer size per chunk of rows (fits the L2/L3 caches well)
@@ -181,20 +182,11 @@ def _transpose_kernel(row_splits, src, n_virtual):
 # that the destination segment and the source row are contiguous vectors.
 @nb.njit(cache=True, parallel=True, fastmath=True)
 def _spread(row_splits, src, cells, w, F, r0, r1, out):
-    """out[i - r0, c·C:(c+1)·C] = Σ_{edges e of row i, corners k with cell c} w[e,k]·F[src[e]]."""
-    C = F.shape[1]
-    nk = cells.shape[1]
+    """out[i - r0, c·C:(c+1)·C] = Σ_{edges e of row i, corners k with cell c} w[e,k]·F[src[e]]
+    (one receiver row: :func:`dcdc.model.fused._spread_row`)."""
     for ii in nb.prange(r1 - r0):
         i = r0 + ii
-        row = out[ii]
-        row[:] = 0.0
-        for e in range(row_splits[i], row_splits[i + 1]):
-            fj = F[src[e]]
-            for k in range(nk):
-                seg = row[cells[e, k] * C:(cells[e, k] + 1) * C]
-                wk = w[e, k]
-                for c in range(C):
-                    seg[c] += wk * fj[c]
+        _spread_row(out[ii], row_splits[i], row_splits[i + 1], src, cells, w, F)
 
 
 @nb.njit(cache=True, parallel=True, fastmath=True)

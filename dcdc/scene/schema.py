@@ -34,12 +34,16 @@ WALL_COMMON = {"shape": ("str", REQ)}
 MESH_PLACE = {"file": ("str", REQ), "scale": ("scale", 1.0), "translate": ("vec3L", None),
               "rotation_axis": ("vec3", None), "rotation_degrees": ("float", 0.0),
               "slice_z": ("float", 0.0)}
-WALL_SHAPES = {
-    "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "hollow": ("bool", False),
-            "open_top": ("bool", True)},
+# the solids that walls and fluid blocks share
+ROUND_SHAPES = {
     "sphere": {"center": ("vecL", REQ), "radius": ("L", REQ)},
     "cylinder": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
                  "axis": ("int", 1)},
+}
+WALL_SHAPES = {
+    "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "hollow": ("bool", False),
+            "open_top": ("bool", True)},
+    **ROUND_SHAPES,
     "bowl": {"center": ("vecL", REQ), "radius": ("L", REQ), "thickness": ("L", None)},
     "glass": {"center": ("vecL", REQ), "bowl": ("profileL", REQ), "stem": ("L0", REQ),
               "foot": ("L", REQ), "thickness": ("L", None)},
@@ -60,9 +64,7 @@ FLUID_COMMON = {"phase": ("str", None), "phases": ("list", None), "fractions": (
 FLUID_SHAPES = {
     "box": {"min": ("vecL", REQ), "max": ("vecL", REQ), "top_wave": ("pair", None),
             "bottom_wave": ("pair", None)},
-    "sphere": {"center": ("vecL", REQ), "radius": ("L", REQ)},
-    "cylinder": {"center": ("vecL", REQ), "radius": ("L", REQ), "height": ("L", REQ),
-                 "axis": ("int", 1)},
+    **ROUND_SHAPES,
     "fill": {"inside": ("str", REQ), "min": ("vecL", None), "max": ("vecL", None),
              "clearance": ("L0", None), "top_wave": ("pair", None), "bottom_wave": ("pair", None)},
     "mesh": {**MESH_PLACE, "clearance": ("L0", None)},
