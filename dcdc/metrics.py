@@ -385,7 +385,7 @@ def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
     face. Closeness alone is not a penetration: the SPH data keeps its first row at the wall
     particles (on the suite's glasses and hourglasses up to 1 % of the fluid comes within a
     quarter spacing of one, in front of it) and never behind them."""
-    from .neighbors import radius_search
+    from .neighbors import nearest_edges, radius_search
 
     x = np.asarray(x, dtype=np.float64)
     out = np.zeros(len(x), dtype=bool)
@@ -401,8 +401,7 @@ def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
     recv = nb.receivers()
     off = xf[recv] - wall_x[nb.index]
     dist = np.linalg.norm(off, axis=1)
-    order = np.lexsort((dist, recv))  # by receiver, nearest wall particle first
-    first = order[np.r_[True, recv[order][1:] != recv[order][:-1]]]
+    first = nearest_edges(recv, dist)
     nearest_n = np.zeros_like(xf)
     nearest_n[recv[first]] = wall_n[nb.index[first]]
     n = wall_n[nb.index]

@@ -40,6 +40,15 @@ class Neighbors:
         return np.repeat(np.arange(len(self.row_splits) - 1, dtype=np.int32), self.counts)
 
 
+def nearest_edges(receivers: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """Index of each receiver's shortest edge: one entry per receiver that has edges, in
+    receiver order (``receivers``, ``dist``: per edge; ties keep the first edge)."""
+    order = np.lexsort((dist, receivers))  # by receiver, shortest first
+    keep = np.ones(len(order), dtype=bool)
+    keep[1:] = receivers[order][1:] != receivers[order][:-1]
+    return order[keep]
+
+
 def _grid(lo: np.ndarray, hi: np.ndarray, radius: float):
     """Cell edge and padded grid shape covering [lo, hi] with cells of edge >= radius."""
     extent = np.maximum(hi - lo, radius)

@@ -43,6 +43,7 @@ import numpy as np
 import torch
 
 from ..model.integrator import step
+from ..neighbors import nearest_edges
 from .config import LossConfig
 from .sampler import Batch
 
@@ -82,11 +83,7 @@ def nearest_wall(geometry, wall_x, like: torch.Tensor) -> tuple[np.ndarray, np.n
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     xr = like.detach().cpu().numpy()[rec]
     ws = torch.as_tensor(wall_x).detach().cpu().numpy().astype(np.float64)[snd]
-    d2 = ((xr - ws) ** 2).sum(axis=1)
-    order = np.lexsort((d2, rec))  # by receiver, nearest first
-    first = np.ones(len(order), bool)
-    first[1:] = rec[order][1:] != rec[order][:-1]
-    pick = order[first]
+    pick = nearest_edges(rec, ((xr - ws) ** 2).sum(axis=1))
     return rec[pick].astype(np.int64), snd[pick]
 
 
