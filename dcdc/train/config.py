@@ -114,6 +114,8 @@ class LossConfig:
     # wall_margin particle radii in front of the nearest wall particle (0 = behind it)
     wall_weight: float = 0.0
     wall_margin: float = 0.0
+    # phase term (loss.py): weight of the error of each phase's centre of mass (0 = off)
+    phase_weight: float = 0.0
 
     def validate(self):
         check(self.unroll >= 1, "loss.unroll", ">= 1", self.unroll)
@@ -128,6 +130,7 @@ class LossConfig:
         check(self.wall_weight >= 0, "loss.wall_weight", ">= 0", self.wall_weight)
         check(0 <= self.wall_margin <= 4.5, "loss.wall_margin", "in [0, 4.5] particle radii",
               self.wall_margin)
+        check(self.phase_weight >= 0, "loss.phase_weight", ">= 0", self.phase_weight)
 
     def weights(self) -> list[float]:
         w = list(self.step_weights) or [1.0] * self.unroll

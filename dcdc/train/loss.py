@@ -73,6 +73,26 @@ def scene_mean(values: torch.Tensor, batch: Batch) -> torch.Tensor:
     return (sums[has] / counts[has]).mean() if bool(has.any()) else values.sum() * 0
 
 
+def phase_groups(batch: Batch) -> tuple[torch.Tensor, int]:
+    """(group of every particle [N], number of groups): one group per scene and rest density."""
+    key = np.stack([batch.scene_index().cpu().numpy().astype(np.float64),
+                    batch.density.detach().cpu().numpy().astype(np.float64)], axis=1)
+    _, group = np.unique(key, axis=0, return_inverse=True)
+    group = np.asarray(group).reshape(-1)
+    return torch.as_tensor(group, device=batch.position.device), int(group.max()) + 1
+
+
+def phase_error(pred: torch.Tensor, target: torch.Tensor, groups: tuple[torch.Tensor, int],
+                gamma: float) -> torch.Tensor:
+    """mean over (scene, phase) groups of (‖mean_group (pred − target)‖² + ε)^(γ/2)."""
+    group, n = groups
+    d = pred - target
+    sums = torch.zeros(n, d.shape[1], dtype=d.dtype, device=d.device).index_add(0, group, d)
+    counts = torch.bincount(group, minlength=n).to(d.dtype).unsqueeze(1)
+    mean = sums / counts
+    return ((mean ** 2).sum(dim=1) + EPS).pow(0.5 * gamma).mean()
+
+
 def nearest_wall(geometry, wall_x, like: torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
     """For each receiver of a wall→fluid conv ``geometry``: (particles with a wall neighbour
     [M], the nearest of their wall neighbours [M]), distances taken at the receivers'
@@ -112,6 +132,7 @@ def unrolled_loss(model, batch: Batch, cfg: LossConfig) -> tuple[torch.Tensor, l
     net = getattr(model, "module", model)
     x, v = batch.position[0], batch.velocity
     total, parts = None, []
+    groups = phase_groups(batch) if cfg.phase_weight > 0 else None
     for k, w in enumerate(cfg.weights()):
         x, v = step(model, x, v, batch.density, batch.wall_position, batch.wall_normal,
                     gravity=batch.gravity, scenes=batch.scenes)
@@ -123,6 +144,8 @@ def unrolled_loss(model, batch: Batch, cfg: LossConfig) -> tuple[torch.Tensor, l
                 x, batch, net.last_context.wall, net.cfg.particle_radius, cfg.wall_margin,
                 cfg.gamma)
         lk = scene_mean(err, batch)
+        if groups is not None:
+            lk = lk + cfg.phase_weight * phase_error(x, batch.position[k + 1], groups, cfg.gamma)
         parts.append(float(lk.detach()))
         total = w * lk if total is None else total + w * lk
     return total, parts
