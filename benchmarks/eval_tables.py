@@ -22,7 +22,10 @@ def summary(path):
     doc = json.loads(Path(path).read_text())
     trajs = doc["trajectories"]
     n = len(trajs)
-    contact = "with" if doc.get("contact", True) else "without"
+    used = doc.get("contact", True)  # one flag, or {model: flag} (each model's own default)
+    used = set(used.values()) if isinstance(used, dict) else {used}
+    contact = {frozenset({True}): "with", frozenset({False}): "without"}.get(
+        frozenset(used), "each model's default")
     out = [f"**{Path(path).stem}** ({doc['data']}, {n} trajectories, wall contact {contact})", "",
            "| model | n+1 mm | n+2 mm | rollout mm | W2 mm | KE err | COM err | order ok "
            "| layers like SPH | stable | steps (mean / requested) | stop causes | in walls (max) | contacts/step | ms/step |",

@@ -15,7 +15,7 @@ export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 python benchmarks/inertial_model.py cconv3d out/inertial3d.pt
 M="--model dcdc3d --model cconv3d"
 I="--model out/inertial3d.pt"
-ev() { dcdc evaluate --stride 10 --overwrite "$@" > /dev/null; }
+ev() { dcdc evaluate --stride 10 --overwrite --contact "$@" > /dev/null; }
 # the random validation and held-out-ratio scenes (ratios 10-20, outside training)
 ev $M $I --data "$DATA/valid" --json benchmarks/results/eval_3d_valid.json --plots out/eval_3d/valid &
 ev $M --data "$DATA/test_ratio" --json benchmarks/results/eval_3d_test_ratio.json --plots out/eval_3d/test_ratio &

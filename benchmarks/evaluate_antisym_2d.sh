@@ -9,7 +9,7 @@ DATA=${1:-datasets/2d_su}
 SET=$(basename "$DATA"); SET=${SET#2d_}
 export OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1
 M="--model benchmarks/models/antisym2d_s1.pt --model benchmarks/models/antisym2d_s3.pt"
-ev() { dcdc evaluate --stride 10 --overwrite $M "$@" > /dev/null; }
+ev() { dcdc evaluate --stride 10 --overwrite --contact $M "$@" > /dev/null; }
 ev --data "$DATA/test_scenes" --json benchmarks/results/eval_2d_test_scenes_antisym_$SET.json &
 ev --data "$DATA/canyon10" --json benchmarks/results/eval_2d_canyon10_antisym_$SET.json &
 wait

@@ -41,7 +41,7 @@ def run_model(path: str, scene: str, steps: int) -> dict:
 
     model, _ = load_checkpoint(path)
     system, _, _ = start_from_scene(scene, 3, 1.0, model, steps, None)
-    ro = run(NeuralSimulator(model, system, guard=Guard()), steps)
+    ro = run(NeuralSimulator(model, system, guard=Guard(), contact=True), steps)
     y_end = ro.position[-1][:, 1] if scene == "cocktail" else None
     return summary(path, [p99(v) for v in ro.velocity], y_end, ro.steps, ro.stopped)
 

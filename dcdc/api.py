@@ -171,12 +171,13 @@ def run_sph(scene, dim: int | None = None, resolution: float = 1.0,
 
 
 def rollout(model, system: ParticleSystem, steps: int, time: float = 0.0,
-            contact: bool = True, device: str = "cpu", max_speed: float = 50.0,
+            contact: bool | None = None, device: str = "cpu", max_speed: float = 50.0,
             max_in_walls: float = 0.01, progress: bool = False) -> Run:
     """``steps`` steps of the learned simulator ``model`` (:func:`load_model`) from
     ``system`` (advanced in place; e.g. ``scene.realize(dim=2)`` or a dataset frame,
     ``Trajectory.system(frame)``, at simulated ``time``), as ``dcdc simulate`` does: the
-    walls' contact after each step unless ``contact`` is False, and a guard (``max_speed``
+    walls' contact after each step where ``contact`` says (None: the model's own default,
+    :func:`dcdc.evaluate.rollout.uses_contact`; off for ``dcdc2d``), and a guard (``max_speed``
     m/s, ``max_in_walls`` fraction) that ends the rollout early with its report in
     :attr:`Run.stopped`."""
     from .evaluate.rollout import Guard, NeuralSimulator, run
@@ -192,11 +193,11 @@ def rollout(model, system: ParticleSystem, steps: int, time: float = 0.0,
             bar.close()
     return Run(f"{system.name}_{system.dim}d", ro.position, ro.velocity, ro.time, sim.system,
                f"dcdc.neural ({net.name})", None if ro.stopped is None else str(ro.stopped), ro.ms_per_step,
-               {"frame_dt": sim.dt, "wall_contact": int(contact)})
+               {"frame_dt": sim.dt, "wall_contact": int(sim.uses_contact)})
 
 
 def simulate(model, scene, dim: int | None = None, resolution: float = 1.0,
-             steps: int | None = None, settle: float | None = None, contact: bool = True,
+             steps: int | None = None, settle: float | None = None, contact: bool | None = None,
              device: str = "cpu", max_particles: float | None = None,
              progress: bool = False) -> Run:
     """Run the learned simulator ``model`` on ``scene`` (:func:`load_scene`) from its

@@ -131,9 +131,10 @@ def order_ok(traj, frame: int = -1) -> bool:
               help="learned model run beside SPH: a checkpoint, a shipped name (dcdc2d, "
                    "cconv3d, ...), 'auto' (the shipped dcdc model of --dim, skipped where the "
                    "scene's particle radius or frame dt is not its own) or 'none'")
-@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT,
               help="with --model: the SPH solver's wall contact after each network step (a "
-                   "safety net; its moves are reported) or the network alone")
+                   "safety net; its moves are reported) or the network alone [default: the "
+                   "model's own: off for dcdc2d, on for dcdc3d]")
 @click.option("--settle", type=float, default=None,
               help="with --model: hand the network the SPH state at SECONDS (e.g. 0.2) instead "
                    "of the lattice start; its file repeats the SPH frames before that")
@@ -263,7 +264,7 @@ def fresh_dir(out, overwrite: bool) -> None:
 
 
 def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
-                   start: int = 0, contact: bool = CONTACT_DEFAULT) -> tuple[str, str | None]:
+                   start: int = 0, contact: bool | None = CONTACT_DEFAULT) -> tuple[str, str | None]:
     """Run ``net`` on the demo scene from the SPH run's frame ``start`` (0: the lattice
     start; later: the settled state, docs/models.md "The cocktail's start-up burst"); write
     its trajectory (the SPH frames before ``start`` first, so both files share frame times),
@@ -296,7 +297,8 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     settled = {"settled_by_sph_s": float(traj.time[start])} if start else {}
     write_rollout(tmp / f"{name}.h5", name, ro, sim.system,
                   {"scene": sc.name, "frame_dt": sim.dt, "split": "rollout",
-                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path), **settled},
+                   "solver": f"dcdc.neural ({net.name})", "model": str(model_path),
+                   "wall_contact": int(sim.uses_contact), **settled},
                   steps_requested=n_frames - start)
     pred = Dataset(tmp / f"{name}.h5")[name]
     n = pred.n_frames
@@ -314,7 +316,7 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     stop = f"stopped by the guard: {ro.stopped}" if ro.stopped is not None else "ran through"
     moved = int(ro.contacts.sum()) if ro.contacts is not None else 0
     support = (f"wall contact on: {moved} particle moves back out of walls"
-               if contact else "the network alone (no wall contact)")
+               if sim.uses_contact else "the network alone (no wall contact)")
     lines = [f"learned model {model_path}{since}: {ro.steps} of {n_frames - start} steps "
              f"({stop}), {ro.ms_per_step:.1f} ms per step, {support}",
              f"{'phase':<12}{'centre-of-mass height [m]':>30}{'per-phase purity':>18}"

@@ -89,7 +89,7 @@ def test_demo_runs_a_shipped_model_beside_sph(tmp_path, capsys):
         assert abs(rel - abs(mine - sph) / sph) <= 0.001 / sph + 0.0005 + 1e-9
     assert "centre-of-mass height error" in stdout and "stratification order (heavy below): yes" in stdout
     assert "verdict: layers like SPH, stratification order (heavy below): yes" in stdout
-    assert "wall contact on:" in stdout
+    assert "the network alone (no wall contact)" in stdout  # dcdc2d's default
     for _, _, _, p_sph, p_mine, w1 in heights.values():  # purity in [0, 1], W1 a fraction
         assert 0 <= p_sph <= 1 and 0 <= p_mine <= 1 and 0 <= w1 < 0.05
     assert (out / "lock_exchange_2d_dcdc.h5").is_file()

@@ -57,7 +57,7 @@ def test_score(built, tmp_path, capsys):
     code, out, err = dcdc(capsys, "suite", "score", "--model", ck, "--suite", d, "--no-contact",
                           "--json", js, "--no-progress")
     assert code == 0, err
-    assert "SPH floor" in out and "untrained" in out and "contact off" in out
+    assert "SPH floor" in out and "untrained" in out and "wall contact: untrained off" in out
     res = json.loads(js.read_text())
     groups = {r["group"] for r in res["rows"]}
     assert {"all", FAMILIES[0], FAMILIES[1]} <= groups
@@ -92,3 +92,26 @@ def test_summarise_and_bins():
     assert s["order_ok"] == pytest.approx(1 / 3) or s["order_ok"] == round(1 / 3, 4)
     assert s["com_within_5pct"] == round(1 / 3, 4)  # a run that stopped early is a miss
     assert s["purity_ratio_median"] == 0.9
+
+
+def test_contact_default_is_the_checkpoints(tmp_path):
+    """A checkpoint that says it runs alone rolls out without the wall contact unless told
+    otherwise; one that says nothing keeps the contact; an explicit flag wins either way."""
+    import torch
+
+    from dcdc.evaluate.rollout import NeuralSimulator, uses_contact
+    from dcdc.model.checkpoint import load_checkpoint, save_checkpoint
+    from dcdc.model.networks import build_network
+    from dcdc.api import load_scene
+
+    torch.manual_seed(0)
+    net = build_network("dcdc", 2)
+    alone = load_checkpoint(save_checkpoint(tmp_path / "alone.pt", net, contact=False))[0]
+    quiet = load_checkpoint(save_checkpoint(tmp_path / "quiet.pt", net))[0]
+    assert uses_contact(alone) is False and uses_contact(quiet) is True
+    assert uses_contact(alone, True) is True and uses_contact(quiet, False) is False
+    assert uses_contact(net) is True  # a network never saved says nothing
+    system = load_scene("dam_break").realize(dim=2)
+    assert NeuralSimulator(alone, system.copy()).contact is None
+    assert NeuralSimulator(quiet, system.copy()).contact is not None
+    assert NeuralSimulator(alone, system.copy(), contact=True).uses_contact

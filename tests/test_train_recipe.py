@@ -111,6 +111,21 @@ def test_two_stages_run_in_order_each_from_the_previous_weights(tmp_path):
         assert (run / stage / "config.toml").exists() and (run / stage / "metrics.csv").exists()
 
 
+def test_serve_sets_how_the_final_network_is_served(tmp_path):
+    recipe = load_recipe(tiny_recipe(tmp_path, second_steps=1,
+                                     extra="\n[serve]\nwall_far_faces = true\ncontact = false\n"))
+    assert recipe.serve == {"wall_far_faces": True, "contact": False}
+    run = tmp_path / "run"
+    final = run_recipe(recipe, run, echo=lambda *_: None)
+    last = read_checkpoint(run / "second" / "model.pt")
+    ck = read_checkpoint(final)  # the digest is checked on reading
+    assert last["config"]["wall_far_faces"] is False and "contact" not in last
+    assert ck["config"]["wall_far_faces"] is True and ck["contact"] is False
+    net = load_checkpoint(final)[0]
+    assert net.cfg.wall_far_faces is True and net.contact_default is False
+    assert same(net.state_dict(), weights(run / "second" / "model.pt"))
+
+
 def test_an_interrupted_recipe_resumes_and_skips_finished_stages(tmp_path, monkeypatch):
     recipe = load_recipe(tiny_recipe(tmp_path, second_steps=6))
     run = tmp_path / "run"
@@ -184,6 +199,8 @@ BAD_STAGES = [
     ("[optimizer]\nlr = 1\n", "unknown top-level key 'optimizer'"),
     ("[[dataset]]\ngenerate = ['x']\n", "path must be a folder name"),
     ("[[dataset]]\npath = 'd'\ncommand = 'x'\n", "unknown [[dataset]] key 'command'"),
+    ("[serve]\ncontact = 'no'\n", "serve.contact must be true or false"),
+    ("[serve]\nnoise = true\n", "unknown [serve] key 'noise'"),
 ]
 
 
@@ -252,6 +269,10 @@ def test_every_model_recipe_parses_and_ends_with_its_shipped_config(path):
     mine = recipe.config(len(recipe.stages) - 1, "runs/x").to_dict()
     diff = [k for k in _config_differences(recorded, mine) if k != "model.init"]
     assert all(_get(recorded, k) is None for k in diff), diff  # only keys it predates
+    ck = read_checkpoint(shipped)  # [serve]: how the shipped file serves the weights
+    assert ck.get("contact") == recipe.serve.get("contact")
+    if "wall_far_faces" in recipe.serve:
+        assert ck["config"]["wall_far_faces"] == recipe.serve["wall_far_faces"]
 
 
 def _get(d: dict, key: str):

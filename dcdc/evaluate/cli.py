@@ -33,9 +33,10 @@ from .start import (check_start_frame, settle_frames, settle_with_sph, start_fro
               help="guard: a faster particle stops the rollout [m/s]")
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True,
               help="guard: the largest fraction of particles allowed inside walls")
-@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT,
               help="move particles that reach a wall's solid back to its surface after each "
-                   "step (the SPH solver's wall contact); --no-contact: the network alone")
+                   "step (the SPH solver's wall contact); --no-contact: the network alone "
+                   "[default: the model's own: off for dcdc2d, on for the others]")
 @click.option("--device", default="cpu", show_default=True)
 @click.option("--max-particles", type=float, default=None, help="raise the scene's particle budget")
 @click.option("--settle", type=float, default=None,
@@ -104,13 +105,14 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
             "solver": f"dcdc.neural ({model.name})",
             "solver_settings": json.dumps(model.config(), sort_keys=True),
             "model": str(model_path), "model_digest": str(ck.get("digest", "")),
-            "wall_contact": int(contact),
+            "wall_contact": int(sim.uses_contact),
             "dcdc_version": version, "git_commit": commit,
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "wall_time_s": time.time() - t0}
     write_rollout(out, name, ro, sim.system, meta, steps_requested=n)
     walls = int(ro.in_walls.max()) if len(ro.in_walls) else 0
-    moved = f", {int(ro.contacts.sum())} wall contact(s)" if contact else ", no wall contact"
+    moved = (f", wall contact on: {int(ro.contacts.sum())} particle move(s) out of walls"
+             if sim.uses_contact else ", the network alone (no wall contact)")
     partial = " (PARTIAL: stopped by the guard, recorded in the file)" if ro.stopped else ""
     click.echo(f"wrote {out}: {ro.steps} of {n} steps{partial}, {ro.ms_per_step:.1f} ms per "
                f"step, at most {walls} particle(s) inside walls{moved}")
@@ -226,8 +228,9 @@ def _plot(results: dict, out_dir: Path) -> list[Path]:
               help="n+1 / n+2 errors from every STRIDE-th ground-truth frame")
 @click.option("--max-speed", type=float, default=50.0, show_default=True, help="guard [m/s]")
 @click.option("--max-in-walls", type=float, default=0.01, show_default=True, help="guard")
-@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
-              help="the walls' contact in the rollouts (dcdc simulate --help)")
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT,
+              help="the walls' contact in the rollouts [default: each model's own; dcdc "
+                   "simulate --help]")
 @click.option("--members", type=int, default=1, show_default=True,
               help="rollouts per model and trajectory: member 0 from the stored start, the "
                    "others from starts displaced by --perturb (the rollouts are chaotic; the "
@@ -247,7 +250,7 @@ def evaluate_command(models, data, names, steps, start_frame, stride, max_speed,
     from ..data.dataset import Dataset
     from ..outputs import check_dir, check_file, write_text
     from ..model.checkpoint import check_compatible, load_checkpoint
-    from .rollout import Guard
+    from .rollout import Guard, uses_contact
     from .scores import aggregate, score_members
 
     if stride < 1:
@@ -277,7 +280,8 @@ def evaluate_command(models, data, names, steps, start_frame, stride, max_speed,
                              what=f"trajectory {t.name} of {data}")
     results = {"data": str(data), "models": dict(zip(labels, map(str, models))),
                "stride": stride, "steps": steps, "start_frame": start_frame,
-               "contact": contact, "members": members,
+               "contact": {lab: uses_contact(net, contact) for lab, net in zip(labels, nets)},
+               "members": members,
                "perturb_m": perturb if members > 1 else 0.0, "trajectories": {},
                "aggregate": {}}
     with interrupt.handling(), tqdm(total=len(trajs) * len(nets) * members, unit="rollout") as bar:

@@ -18,14 +18,17 @@ turns NaN/inf, a particle exceeds the speed bound, leaves the domain, or more th
 fraction of the particles sits inside walls (:func:`dcdc.metrics.inside_walls`). Wall
 penetrations are counted in ``stats`` either way.
 
-Wall contact (``contact=True``, the default): after each network step, a particle that has
+Wall contact (``contact=True``): after each network step, a particle that has
 reached a wall's solid is moved back to its surface and loses its velocity into the wall —
 the SPH solver's own inelastic, frictionless contact (:meth:`dcdc.sph.volume_map.VolumeMap.
 keep_outside`, on the walls' volume map built from the scene's signed distance or the wall
 particles). It is a hard constraint, not learned: the network still does all the fluid
 dynamics, and ``stats["contacts"]`` counts the particles it moved. The networks of
 DeepLagrangianFluids and of the paper have no such step; ``contact=False`` (``dcdc simulate
---no-contact``) rolls out the network alone, and docs/models.md reports both.
+--no-contact``) rolls out the network alone, and docs/models.md reports both. The default
+(``contact=None``) is the model's own (:func:`uses_contact`): a checkpoint states whether its
+network runs alone (``"contact": false``, measured on the generalisation suite and the
+showcases) or needs the contact (``true``, the default of a checkpoint that says nothing).
 """
 from __future__ import annotations
 
@@ -74,6 +77,13 @@ class RolloutStopped(SimulationDiverged):
                          f"particle #{particle} {detail}")
 
 
+def uses_contact(model, contact: bool | None = None) -> bool:
+    """``contact`` where given, else the network's own default: ``model.contact_default``,
+    set from its checkpoint's ``"contact"`` by :func:`~dcdc.model.checkpoint.load_checkpoint`
+    (True for a network or checkpoint that does not say)."""
+    return bool(getattr(model, "contact_default", True)) if contact is None else bool(contact)
+
+
 def _as_model(model, device):
     from ..model.checkpoint import load_checkpoint
     from ..model.networks import CorrectionNet
@@ -96,11 +106,12 @@ class NeuralSimulator:
         time: simulated time of ``system`` (e.g. ``Trajectory.time[frame]``; emitters).
         density: optional per-particle rest densities [N] overriding the phases'.
         device: where the network runs ("cpu", "cuda").
-        contact: apply the walls' contact after each step (module doc).
+        contact: apply the walls' contact after each step (module doc); None: the model's
+            own default (:func:`uses_contact`), in ``self.uses_contact``.
     """
 
     def __init__(self, model, system: ParticleSystem, guard: Guard | None = None, time: float = 0.0, density=None,
-                 device: str | torch.device = "cpu", contact: bool = CONTACT_DEFAULT):
+                 device: str | torch.device = "cpu", contact: bool | None = CONTACT_DEFAULT):
         from ..model.checkpoint import check_compatible
 
         if not isinstance(system, ParticleSystem):
@@ -125,7 +136,8 @@ class NeuralSimulator:
         self._wall_x = torch.as_tensor(system.wall_x)
         self._wall_n = torch.as_tensor(system.wall_n)
         self._gravity = torch.as_tensor(system.gravity)
-        self.contact = WallContact(system) if contact and system.n_wall else None
+        self.uses_contact = uses_contact(self.model, contact)
+        self.contact = WallContact(system) if self.uses_contact and system.n_wall else None
         self.stats: dict = {}
         self.totals = {"steps": 0, "step_seconds": 0.0, "max_in_walls": 0, "max_speed": 0.0,
                        "contacts": 0}

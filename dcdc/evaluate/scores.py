@@ -189,14 +189,15 @@ def perturbed_start(traj, frame: int, perturb: float, seed: int):
 
 def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
                      guard: Guard | None = None, ot_points: int = 2000,
-                     contact: bool = CONTACT_DEFAULT, start_frame: int = 0, perturb: float = 0.0,
+                     contact: bool | None = CONTACT_DEFAULT, start_frame: int = 0, perturb: float = 0.0,
                      seed: int = 0, one_two_step: bool = True) -> dict:
     """All scores of ``model`` on ground-truth trajectory ``traj`` (a
     :class:`~dcdc.data.dataset.Trajectory`): n+1/n+2 errors (the network alone, over the
     whole trajectory; skipped, None, with ``one_two_step`` False), a rollout from frame
     ``start_frame`` (default 0: the scene's initial state; displaced as
     :func:`perturbed_start` says with ``perturb`` > 0) over ``steps`` (default: every
-    remaining frame; with the walls' contact unless ``contact`` is False) with its per-frame
+    remaining frame; with the walls' contact where ``contact`` says, None: the model's
+    default, :func:`~dcdc.evaluate.rollout.uses_contact`) with its per-frame
     errors against the frames it reaches, and the final-state physics. The rollout's
     per-frame curves are under ``"curves"``."""
     from ..model.checkpoint import check_compatible
@@ -267,7 +268,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "density_error_true": _finite(true["density_error"]),
         "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
         "in_walls_mean": _finite(ro.in_walls.mean()) if len(ro.in_walls) else 0.0,
-        "contact": bool(contact),
+        "contact": bool(sim.uses_contact),
         "contacts_per_step": _finite(ro.contacts.mean()) if len(ro.contacts) else 0.0,
         "ms_per_step": _finite(ro.ms_per_step),
         "s_per_simulated_s": _finite(ro.ms_per_step / 1e3 / traj.frame_dt),

@@ -295,15 +295,16 @@ def load_index(suite) -> dict:
         raise DcdcError(f"{p}: unreadable ({e})") from None
 
 
-def score(models, suite, contact: bool = CONTACT_DEFAULT, max_speed: float = 50.0,
+def score(models, suite, contact: bool | None = CONTACT_DEFAULT, max_speed: float = 50.0,
           max_in_walls: float = 0.01, progress: bool = True) -> dict:
     """Every model on every suite scene (a rollout over the whole trajectory from its
-    stored start); returns {"rows": table rows, "scenes": per-scene rows, ...}."""
+    stored start; ``contact`` None: each model's own default); returns {"rows": table rows,
+    "scenes": per-scene rows, "contact": {label: used}, ...}."""
     from ..data import interrupt
     from ..data.dataset import Dataset
     from ..model.checkpoint import check_compatible, load_checkpoint
     from .cli import _labels
-    from .rollout import Guard
+    from .rollout import Guard, uses_contact
     from .scores import score_trajectory
 
     index = load_index(suite)
@@ -333,7 +334,8 @@ def score(models, suite, contact: bool = CONTACT_DEFAULT, max_speed: float = 50.
                 bar.update(1)
     rows = table_rows(index, per_model)
     return {"suite": str(suite), "dim": index["dim"], "models": dict(zip(labels, map(str, models))),
-            "contact": contact, "com_tolerance": COM_TOL, "rows": rows,
+            "contact": {lab: uses_contact(net, contact) for lab, net in zip(labels, nets)},
+            "com_tolerance": COM_TOL, "rows": rows,
             "scenes": {n: {**index["scenes"][n], "models": {lab: per_model[lab][n] for lab in labels}}
                        for n in names}}
 
@@ -368,8 +370,9 @@ def build_command(dim, out, scenes, members, workers, duration, retry_failed, no
 @click.option("--model", "models", multiple=True, required=True, type=click.Path(dir_okay=False),
               help="a checkpoint or shipped model name; repeat for several")
 @click.option("--suite", required=True, type=click.Path(file_okay=False), help="a built suite")
-@click.option("--contact/--no-contact", default=CONTACT_DEFAULT, show_default=True,
-              help="the walls' contact in the rollouts (dcdc simulate --help)")
+@click.option("--contact/--no-contact", default=CONTACT_DEFAULT,
+              help="the walls' contact in the rollouts [default: each model's own; dcdc "
+                   "simulate --help]")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write every row (and every scene's scores) here")
 @click.option("--no-progress", is_flag=True)
@@ -377,8 +380,9 @@ def score_command(models, suite, contact, json_path, no_progress):
     """Score models on the suite against SPH and the SPH ensemble floor."""
     from ..outputs import write_text
     res = score(models, suite, contact, progress=not no_progress)
-    click.echo(f"suite {suite}: {len(res['scenes'])} {res['dim']}-D scenes; contact "
-               f"{'on' if contact else 'off'}; fractions of runs; 'to end' = runs that reach "
+    used = ", ".join(f"{lab} {'on' if on else 'off'}" for lab, on in res["contact"].items())
+    click.echo(f"suite {suite}: {len(res['scenes'])} {res['dim']}-D scenes; wall contact: "
+               f"{used}; fractions of runs; 'to end' = runs that reach "
                f"the last frame; COM<=5% = COM height error <= {COM_TOL:g}; purity/SPH = "
                "median of the smallest per-phase purity ratio; SPH order = the stored SPH "
                "run's final order right")

@@ -35,7 +35,7 @@ def neural_cost(model, system, seconds: float, device: str = "cpu") -> dict:
     from .rollout import Guard, NeuralSimulator
 
     sim = NeuralSimulator(model, system, guard=Guard(max_in_walls=1.0, check_domain=False),
-                          device=device)
+                          device=device, contact=True)
     n = max(2, int(round(seconds / sim.dt)) + 1)
     for _ in range(n):
         sim.step()

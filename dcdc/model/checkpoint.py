@@ -42,8 +42,11 @@ FORMAT_VERSION = 2
 
 
 def save_checkpoint(path, model: CorrectionNet, data: dict | None = None,
-                    extra: dict | None = None) -> Path:
+                    extra: dict | None = None, contact: bool | None = None) -> Path:
     """Write ``model`` (config + weights) with a training-data summary; atomic rename.
+
+    ``contact``: whether rollouts of this network apply the walls' contact by default
+    (:func:`dcdc.evaluate.rollout.uses_contact`); None leaves it unsaid (= True).
 
     ``extra`` may hold anything ``torch.load(weights_only=True)`` reads back (tensors,
     numbers, strings, lists, dicts: e.g. an optimizer's state_dict); it is covered by the
@@ -58,6 +61,8 @@ def save_checkpoint(path, model: CorrectionNet, data: dict | None = None,
         "data": dict(data or {}),
         "extra": dict(extra or {}),
     }
+    if contact is not None:
+        payload["contact"] = bool(contact)
     payload["digest"] = digest(payload)
     from ..outputs import write_bytes
 
@@ -65,6 +70,28 @@ def save_checkpoint(path, model: CorrectionNet, data: dict | None = None,
     buf = io.BytesIO()
     torch.save(payload, buf)  # in memory: a full disk is one error line, no torch traceback
     return write_bytes(path, buf.getvalue())
+
+
+def serve_checkpoint(src, dst, wall_far_faces: bool | None = None,
+                     contact: bool | None = None) -> Path:
+    """Copy checkpoint ``src`` to ``dst`` with how its weights are served changed: the wall
+    conv's view of thin walls' far faces (``NetConfig.wall_far_faces``, an input choice the
+    weights do not fix) and whether its rollouts apply the walls' contact by default
+    (``contact``); None keeps the stored value. The digest is recomputed."""
+    ck = dict(read_checkpoint(src))
+    ck["config"] = dict(ck["config"])
+    if wall_far_faces is not None:
+        ck["config"]["wall_far_faces"] = bool(wall_far_faces)
+    if contact is not None:
+        ck["contact"] = bool(contact)
+    ck["digest"] = digest(ck)
+    from ..outputs import write_bytes
+
+    dst = Path(dst)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    buf = io.BytesIO()
+    torch.save(ck, buf)
+    return write_bytes(dst, buf.getvalue())
 
 
 def digest(payload: dict) -> str:
@@ -178,6 +205,8 @@ def load_checkpoint(path, expect: str | None = None, dim: int | None = None,
         raise DcdcError(f"checkpoint {path}: weights do not fit a {name!r} network with its "
                         f"stored config ({msg[:160]})") from None
     model.eval()
+    # whether its rollouts apply the walls' contact by default (dcdc.evaluate.rollout)
+    model.contact_default = bool(ck.get("contact", True))
     return model.to(device), ck
 
 

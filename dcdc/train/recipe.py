@@ -35,6 +35,10 @@ stage changes; ``[[dataset]]`` tables say which commands make the data the stage
 ``model.pt``. A stage whose ``model.pt`` is there is skipped and an interrupted one
 resumes from its newest checkpoint, so the same command, re-run after any interruption,
 finishes the recipe. The last stage's network is copied to ``RUN/model.pt``.
+An optional ``[serve]`` table says how ``RUN/model.pt`` serves those weights:
+``wall_far_faces`` (the wall conv's view of thin walls' far faces, ``NetConfig``) and
+``contact`` (whether its rollouts apply the walls' contact by default;
+:func:`dcdc.model.checkpoint.serve_checkpoint`).
 ``dcdc train RECIPE.toml --plan`` (:func:`plan_text`) prints the stages, the datasets with
 their commands and the estimated time, and trains nothing.
 
@@ -55,7 +59,8 @@ from ..configs import apply_overrides, load_toml
 from ..errors import DcdcError
 from .config import SECTIONS, TrainConfig
 
-RECIPE_KEYS = ("recipe", "dataset", "stage") + SECTIONS
+RECIPE_KEYS = ("recipe", "dataset", "stage", "serve") + SECTIONS
+SERVE_FIELDS = ("wall_far_faces", "contact")
 RECIPE_FIELDS = ("name", "description")
 DATASET_FIELDS = ("path", "generate", "minutes", "note")
 STAGE_FIELDS = ("name", "steps", "minutes") + SECTIONS
@@ -104,6 +109,7 @@ class Recipe:
     base: dict
     datasets: list[DataSource]
     stages: list[Stage]
+    serve: dict = field(default_factory=dict)  # [serve]: how RUN/model.pt serves the weights
 
     # ------------------------------------------------------------------ configs
     def config(self, i: int, run, overrides=()) -> TrainConfig:
@@ -263,8 +269,17 @@ def parse_recipe(d: dict, path) -> Recipe:
                             f"stage's weights); only the first stage may name one")
         stages.append(Stage(name, steps, minutes, over))
 
+    serve = d.get("serve", {})
+    if not isinstance(serve, dict):
+        raise DcdcError(f"{path}: [serve] must be a table")
+    bad = _unknown(serve, SERVE_FIELDS, "[serve]")
+    if bad:
+        raise DcdcError(f"{path}: {bad}")
+    for k, v in serve.items():
+        if not isinstance(v, bool):
+            raise DcdcError(f"{path}: serve.{k} must be true or false (got {v!r})")
     recipe = Recipe(path, str(head.get("name", path.stem)), str(head.get("description", "")),
-                    base, datasets, stages)
+                    base, datasets, stages, dict(serve))
     first = None
     for i, stage in enumerate(recipe.stages):  # every stage's config is valid and
         net = {k: v for k, v in recipe.config(i, "RUN").to_dict()["model"].items()
@@ -403,7 +418,13 @@ def run_recipe(recipe: Recipe, out, overrides=(), device: str = "cpu",
     if not main:
         return final
     last = recipe.stage_dir(out, n - 1) / FINAL
-    with atomic_file(final) as tmp:
-        shutil.copyfile(last, tmp)
-    say(f"{recipe.name}: {final} (the weights of the last stage, {recipe.stages[-1].name!r})")
+    if recipe.serve:
+        from ..model.checkpoint import serve_checkpoint
+        serve_checkpoint(last, final, **recipe.serve)
+    else:
+        with atomic_file(final) as tmp:
+            shutil.copyfile(last, tmp)
+    served = "".join(f", {k} = {str(v).lower()}" for k, v in recipe.serve.items())
+    say(f"{recipe.name}: {final} (the weights of the last stage, {recipe.stages[-1].name!r}"
+        f"{served})")
     return final
