@@ -332,7 +332,8 @@ def _neural_beside(net, model_path, sc, traj, n_frames: int, tmp, names: list,
     worst = float(np.nanmax(com_rel)) if np.isfinite(com_rel).any() else float("nan")
     lines.append(f"centre-of-mass height error {worst:.3f} (largest over phases), wall "
                  f"penetrations {int(ro.in_walls.max()) if len(ro.in_walls) else 0} (largest "
-                 f"per step), whole-rollout error {1e3 * float(np.mean(err)):.1f} mm")
+                 f"per step; {ro.entered_walls} particle(s) inside a wall at some step), "
+                 f"whole-rollout error {1e3 * float(np.mean(err)):.1f} mm")
     why = verdict(mine, traj.phases)
     lines.append(f"verdict: {f'layers like SPH, {ORDER}: yes' if why is None else why}")
     return "\n".join(lines), why

@@ -134,6 +134,13 @@ def test_guard_walls_and_penetration_count():
     assert ro.stopped is None and ro.steps == 3
     assert ro.in_walls.tolist()[0] == 0 and ro.in_walls.max() == 1
     assert ro.contacts.tolist() == [0, 0, 0]
+    assert ro.entered_walls == 1
+    # it keeps falling, out of the floor's underside: still counted once as having entered
+    sim = NeuralSimulator(zero_net(), box_system(x, v), guard=Guard(max_in_walls=1.0,
+                                                                    check_domain=False),
+                          contact=False)
+    ro = run(sim, 12)
+    assert ro.in_walls[-1] == 0 and sim.system.x[1, 1] < -0.2 and ro.entered_walls == 1
 
 
 def test_wall_contact_stops_a_particle_at_the_floor():

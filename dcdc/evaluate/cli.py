@@ -137,7 +137,7 @@ COLUMNS = [  # (heading, key, format) of the stdout table
     ("purity/SPH", "purity_ratio_min", "{:.2f}"), ("height W1", "height_w1_rel_max", "{:.3f}"),
     ("layers", "layers_ok", "{}"),
     ("vol err", "volume_error", "{:.4f}"), ("mom m/s", "momentum_error", "{:.3f}"),
-    ("in walls", "in_walls_max", "{:.0f}"), ("contacts/step", "contacts_per_step", "{:.1f}"),
+    ("in walls", "in_walls_max", "{:.0f}"), ("entered", "entered_walls", "{:.0f}"), ("contacts/step", "contacts_per_step", "{:.1f}"),
     ("steps", "steps", "{}"), ("ms/step", "ms_per_step", "{:.1f}"),
 ]
 

@@ -143,6 +143,7 @@ class NeuralSimulator:
                        "contacts": 0}
         self.contacts: list[int] = []  # particles the wall contact moved in each step
         self.in_walls: list[int] = []  # particles inside walls after each step
+        self.entered = np.zeros(system.n_fluid, dtype=bool)  # ever inside a wall
         self.step_ms: list[float] = []  # wall time of each completed step [ms]
 
     @classmethod
@@ -250,6 +251,7 @@ class NeuralSimulator:
         inside = inside_walls(x, sy.wall_x, sy.wall_n, sy.spacing)
         n_in = int(inside.sum())
         self.in_walls.append(n_in)
+        self.entered[idx[inside]] = True
         if n_in > g.max_in_walls * len(idx):
             k = int(np.flatnonzero(inside)[0])
             raise RolloutStopped(self.steps, self.time, int(idx[k]), "walls",
@@ -340,6 +342,7 @@ class Rollout:
     stopped: RolloutStopped | None
     ms_per_step: float
     contacts: np.ndarray | None = None  # particles the wall contact moved in each step [T − 1]
+    entered_walls: int = 0  # distinct particles inside a wall after any step of the simulator
     sph_frames: int = 0  # leading frames copied from an SPH run, not stepped (demo --settle)
 
     @property
@@ -377,7 +380,8 @@ def run(sim: NeuralSimulator, n_steps: int, progress=None, interrupt_check=None)
     walls = sim.in_walls[first_w:first_w + k]
     contacts = np.asarray(sim.contacts[first_c:first_c + k], dtype=np.int64)
     return Rollout(xs[:n], vs[:n], ts[:n], np.asarray(walls, dtype=np.int64), stopped,
-                   float(np.median(ms)) if ms else float("nan"), contacts)
+                   float(np.median(ms)) if ms else float("nan"), contacts,
+                   int(sim.entered.sum()))
 
 
 def write_rollout(path, name: str, ro: Rollout, system: ParticleSystem, attrs: dict,

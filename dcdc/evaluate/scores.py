@@ -268,6 +268,7 @@ def score_trajectory(model, traj, stride: int = 5, steps: int | None = None,
         "density_error_true": _finite(true["density_error"]),
         "in_walls_max": int(ro.in_walls.max()) if len(ro.in_walls) else 0,
         "in_walls_mean": _finite(ro.in_walls.mean()) if len(ro.in_walls) else 0.0,
+        "entered_walls": int(ro.entered_walls),
         "contact": bool(sim.uses_contact),
         "contacts_per_step": _finite(ro.contacts.mean()) if len(ro.contacts) else 0.0,
         "ms_per_step": _finite(ro.ms_per_step),
@@ -323,7 +324,8 @@ def _sph_cost(traj):
 NUMERIC = ("err_n1_mm", "err_n2_mm", "rollout_mm", "position_mm", "w2_mm", "ke_error",
            "momentum_error", "com_height_error", "purity", "purity_true", "purity_ratio_min",
            "height_w1_rel_max", "volume_error",
-           "density_error", "density_error_true", "in_walls_max", "contacts_per_step", "ms_per_step",
+           "density_error", "density_error_true", "in_walls_max", "entered_walls", "contacts_per_step",
+           "ms_per_step",
            "s_per_simulated_s", "sph_s_per_simulated_s")
 
 
