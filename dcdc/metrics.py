@@ -374,7 +374,7 @@ def layers_like(purity, purity_ref, height_dist, depth: float,
 
 
 # ---------------------------------------------------------------------------- walls
-def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
+def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
     """Boolean mask [N]: fluid particles inside a wall — behind a wall particle b within a
     spacing by more than a quarter spacing, ``(x − x_b)·n_b < −spacing/4`` (normals point
     into the fluid), where b faces the same way as the particle's nearest wall particle
@@ -384,7 +384,10 @@ def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
     particle in front of the nearest face can lie behind the plane of a particle on the other
     face. Closeness alone is not a penetration: the SPH data keeps its first row at the wall
     particles (on the suite's glasses and hourglasses up to 1 % of the fluid comes within a
-    quarter spacing of one, in front of it) and never behind them."""
+    quarter spacing of one, in front of it) and never behind them.
+
+    ``grid``: a :class:`~dcdc.neighbors.CellGrid` of ``wall_x`` built with :func:`wall_grid`
+    (walls do not move: a rollout builds it once instead of every step); same result."""
     from .neighbors import nearest_edges, radius_search
 
     x = np.asarray(x, dtype=np.float64)
@@ -394,7 +397,8 @@ def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
         return out
     finite = np.isfinite(x).all(1)
     xf = x[finite]
-    nb = radius_search(xf, spacing * (1 + 1e-6), wall_x)
+    nb = (grid.search(xf) if grid is not None
+          else radius_search(xf, spacing * (1 + 1e-6), wall_x))
     if nb.n_edges == 0:
         return out
     wall_n = np.asarray(wall_n, dtype=np.float64)
@@ -410,6 +414,13 @@ def inside_walls(x, wall_x, wall_n, spacing: float) -> np.ndarray:
     bad = np.unique(recv[facing & (side < -0.25 * spacing)])
     out[np.flatnonzero(finite)[bad]] = True
     return out
+
+
+def wall_grid(wall_x, spacing: float):
+    """The cell list :func:`inside_walls` searches, for walls that stay where they are."""
+    from .neighbors import CellGrid
+
+    return CellGrid(np.asarray(wall_x, dtype=np.float64), spacing * (1 + 1e-6))
 
 
 def wall_penetrations(x, wall_x, wall_n, spacing: float) -> int:

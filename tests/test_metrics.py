@@ -177,6 +177,14 @@ def test_wall_penetrations():
     assert mask.tolist() == [False, False, True, True, False]
     assert M.wall_penetrations(fluid, wall, normals, 0.05) == 2
     assert M.wall_penetrations(fluid, wall[:0], normals[:0], 0.05) == 0
+    # the walls' cell list built once gives the same answer, also for clouds far outside it
+    grid = M.wall_grid(wall, 0.05)
+    assert M.inside_walls(fluid, wall, normals, 0.05, grid=grid).tolist() == mask.tolist()
+    rng = np.random.default_rng(0)
+    cloud = rng.uniform([-0.6, -0.3], [0.6, 0.4], size=(500, 2))
+    assert (M.inside_walls(cloud, wall, normals, 0.05, grid=grid)
+            == M.inside_walls(cloud, wall, normals, 0.05)).all()
+    assert M.inside_walls(cloud + 5.0, wall, normals, 0.05, grid=grid).sum() == 0
 
 
 def test_convex_corner_is_not_a_penetration():

@@ -40,7 +40,7 @@ import numpy as np
 import torch
 
 from ..errors import DcdcError, SimulationDiverged
-from ..metrics import inside_walls
+from ..metrics import inside_walls, wall_grid
 from ..particles import ParticleSystem
 from . import CONTACT_DEFAULT
 
@@ -144,6 +144,7 @@ class NeuralSimulator:
         self.contacts: list[int] = []  # particles the wall contact moved in each step
         self.in_walls: list[int] = []  # particles inside walls after each step
         self.entered = np.zeros(system.n_fluid, dtype=bool)  # ever inside a wall
+        self._wall_grid = wall_grid(system.wall_x, system.spacing) if system.n_wall else None
         self.step_ms: list[float] = []  # wall time of each completed step [ms]
 
     @classmethod
@@ -248,7 +249,7 @@ class NeuralSimulator:
                 raise RolloutStopped(self.steps, self.time, int(idx[k]), "domain",
                                      f"left the domain at {np.round(x[k], 3).tolist()} "
                                      f"({int(out.sum())} particle(s) outside)")
-        inside = inside_walls(x, sy.wall_x, sy.wall_n, sy.spacing)
+        inside = inside_walls(x, sy.wall_x, sy.wall_n, sy.spacing, grid=self._wall_grid)
         n_in = int(inside.sum())
         self.in_walls.append(n_in)
         self.entered[idx[inside]] = True
