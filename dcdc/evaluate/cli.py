@@ -115,7 +115,8 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
              if sim.uses_contact else ", the network alone (no wall contact)")
     partial = " (PARTIAL: stopped by the guard, recorded in the file)" if ro.stopped else ""
     click.echo(f"wrote {out}: {ro.steps} of {n} steps{partial}, {ro.ms_per_step:.1f} ms per "
-               f"step, at most {walls} particle(s) inside walls{moved}")
+               f"step, at most {walls} particle(s) inside walls at a time, "
+               f"{ro.entered_walls} in all{moved}")
     if ro.stopped is not None:
         raise ro.stopped
 
