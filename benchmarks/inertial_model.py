@@ -4,6 +4,7 @@
 import os
 import sys
 
+import dcdc  # noqa: F401  (first: it sets the OpenMP wait policy torch reads on import)
 import torch
 
 from dcdc.model.checkpoint import load_checkpoint, save_checkpoint

@@ -12,6 +12,7 @@ import argparse
 import json
 
 import numpy as np
+import dcdc  # noqa: F401  (first: it sets the OpenMP wait policy torch reads on import)
 import torch
 
 from dcdc.data.dataset import Dataset

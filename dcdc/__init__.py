@@ -19,6 +19,8 @@ start a thread pool (an explicit setting in the environment always wins):
 * ``OMP_WAIT_POLICY=PASSIVE``: the model alternates numba kernels and torch GEMMs, two
   OpenMP runtimes; with the default active wait the idle pool spins and starves the other
   (measured on 2 cores: a 16-particle forward took 250 ms instead of 1.5 ms).
+  OpenMP reads the policy when torch loads: a program that imports torch before dcdc
+  without it set gets a warning (a 3-D rollout on 2 cores: 1.2-1.3x the wall time).
 * numba's ``workqueue`` threading layer: the OpenMP layer spin-waits at every parallel
   region; on a shared 2-core machine one neighbour pass took 11.6 ms with 2 threads and
   1.0 ms with workqueue (10 k particles).
@@ -26,7 +28,15 @@ start a thread pool (an explicit setting in the environment always wins):
 import os as _os
 import sys as _sys
 
-_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+if "OMP_WAIT_POLICY" not in _os.environ:
+    _os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+    if "torch" in _sys.modules:  # its OpenMP runtime has read the default already
+        import warnings as _warnings
+
+        _warnings.warn("torch was imported before dcdc, so its OpenMP threads spin while "
+                       "dcdc's numba kernels run (slower rollouts and training); import dcdc "
+                       "first or set OMP_WAIT_POLICY=PASSIVE before Python starts",
+                       RuntimeWarning, stacklevel=2)
 if "NUMBA_THREADING_LAYER" not in _os.environ:
     _os.environ["NUMBA_THREADING_LAYER"] = "workqueue"
     if "numba" in _sys.modules:  # imported before dcdc: set its config directly
