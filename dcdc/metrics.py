@@ -388,7 +388,7 @@ def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
 
     ``grid``: a :class:`~dcdc.neighbors.CellGrid` of ``wall_x`` built with :func:`wall_grid`
     (walls do not move: a rollout builds it once instead of every step); same result."""
-    from .neighbors import nearest_edges, radius_search
+    from .neighbors import nearest_edges
 
     x = np.asarray(x, dtype=np.float64)
     out = np.zeros(len(x), dtype=bool)
@@ -397,8 +397,7 @@ def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
         return out
     finite = np.isfinite(x).all(1)
     xf = x[finite]
-    nb = (grid.search(xf) if grid is not None
-          else radius_search(xf, spacing * (1 + 1e-6), wall_x))
+    nb = (grid if grid is not None else wall_grid(wall_x, spacing)).search(xf)
     if nb.n_edges == 0:
         return out
     wall_n = np.asarray(wall_n, dtype=np.float64)

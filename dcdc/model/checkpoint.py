@@ -51,7 +51,6 @@ def save_checkpoint(path, model: CorrectionNet, data: dict | None = None,
     ``extra`` may hold anything ``torch.load(weights_only=True)`` reads back (tensors,
     numbers, strings, lists, dicts: e.g. an optimizer's state_dict); it is covered by the
     digest like the weights."""
-    path = Path(path)
     payload = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -63,9 +62,15 @@ def save_checkpoint(path, model: CorrectionNet, data: dict | None = None,
     }
     if contact is not None:
         payload["contact"] = bool(contact)
-    payload["digest"] = digest(payload)
+    return _write(path, payload)
+
+
+def _write(path, payload: dict) -> Path:
+    """``payload`` with its digest, written atomically to ``path``."""
     from ..outputs import write_bytes
 
+    payload["digest"] = digest(payload)
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     buf = io.BytesIO()
     torch.save(payload, buf)  # in memory: a full disk is one error line, no torch traceback
@@ -84,14 +89,7 @@ def serve_checkpoint(src, dst, wall_far_faces: bool | None = None,
         ck["config"]["wall_far_faces"] = bool(wall_far_faces)
     if contact is not None:
         ck["contact"] = bool(contact)
-    ck["digest"] = digest(ck)
-    from ..outputs import write_bytes
-
-    dst = Path(dst)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    buf = io.BytesIO()
-    torch.save(ck, buf)
-    return write_bytes(dst, buf.getvalue())
+    return _write(dst, ck)
 
 
 def digest(payload: dict) -> str:

@@ -185,6 +185,17 @@ def _unknown(d: dict, known, what: str) -> str | None:
     return f"unknown {what} key {bad[0]!r} (known: {', '.join(known)})" if bad else None
 
 
+def _table(d: dict, key: str, known, path) -> dict:
+    """The optional table ``[key]`` of a recipe (empty when absent), with only ``known`` keys."""
+    t = d.get(key, {})
+    if not isinstance(t, dict):
+        raise DcdcError(f"{path}: [{key}] must be a table")
+    bad = _unknown(t, known, f"[{key}]")
+    if bad:
+        raise DcdcError(f"{path}: {bad}")
+    return t
+
+
 def _number(v, name: str, integer: bool = False):
     ok = isinstance(v, int) if integer else isinstance(v, (int, float))
     if isinstance(v, bool) or not ok or v < (1 if integer else 0):
@@ -200,12 +211,7 @@ def parse_recipe(d: dict, path) -> Recipe:
     bad = _unknown(d, RECIPE_KEYS, "top-level")
     if bad:
         raise DcdcError(f"{path}: {bad}")
-    head = d.get("recipe", {})
-    if not isinstance(head, dict):
-        raise DcdcError(f"{path}: [recipe] must be a table")
-    bad = _unknown(head, RECIPE_FIELDS, "[recipe]")
-    if bad:
-        raise DcdcError(f"{path}: {bad}")
+    head = _table(d, "recipe", RECIPE_FIELDS, path)
     raw_stages = d.get("stage")
     if not isinstance(raw_stages, list) or not raw_stages \
             or not all(isinstance(s, dict) for s in raw_stages):
@@ -269,12 +275,7 @@ def parse_recipe(d: dict, path) -> Recipe:
                             f"stage's weights); only the first stage may name one")
         stages.append(Stage(name, steps, minutes, over))
 
-    serve = d.get("serve", {})
-    if not isinstance(serve, dict):
-        raise DcdcError(f"{path}: [serve] must be a table")
-    bad = _unknown(serve, SERVE_FIELDS, "[serve]")
-    if bad:
-        raise DcdcError(f"{path}: {bad}")
+    serve = _table(d, "serve", SERVE_FIELDS, path)
     for k, v in serve.items():
         if not isinstance(v, bool):
             raise DcdcError(f"{path}: serve.{k} must be true or false (got {v!r})")
