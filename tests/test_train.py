@@ -15,7 +15,7 @@ from dcdc.model.networks import build_network
 from dcdc.train.config import TrainConfig, load_config
 from dcdc.train.curriculum import CurriculumConfig, Stage, allowed, max_density_ratio
 from dcdc.train.loss import neighbour_weights, position_error, scene_mean, unrolled_loss
-from dcdc.train.sampler import WindowSampler, augment, collate, load_window
+from dcdc.train.sampler import WindowSampler, augment, collate, load_window, push_into_walls
 from dcdc.train.trainer import Trainer, checkpoints, train
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -363,3 +363,31 @@ def test_fine_tuning_starts_from_the_given_weights(tmp_path):
               tmp_path / "c", echo=lambda *_: None)
     with pytest.raises(DcdcError, match="does not exist"):
         train(tiny("optim.steps=1", "model.init='nope.pt'"), tmp_path / "d", echo=lambda *_: None)
+
+
+def test_push_into_walls_moves_a_share_of_the_first_row_behind_its_wall():
+    # a floor of wall particles at y = 0 (normal +y), fluid rows at y = r, 3r, 5r
+    r = 0.025
+    wx = np.stack([np.arange(-20, 21) * 2 * r, np.zeros(41)], axis=1)
+    wn = np.tile([0.0, 1.0], (41, 1))
+    gx, gy = np.meshgrid(np.arange(-10, 11) * 2 * r, [r, 3 * r, 5 * r])
+    x = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    out = push_into_walls(x, wx, wn, np.random.default_rng(0), depth=r, fraction=0.5,
+                          reach=2 * r)
+    moved = np.any(out != x, axis=1)
+    first = np.isclose(x[:, 1], r)
+    assert not moved[~first].any()                      # only particles within reach
+    assert 0.2 < moved[first].mean() < 0.8              # about the share asked for
+    assert np.all(out[moved, 1] <= 0) and np.all(out[moved, 1] >= -r)  # behind, ≤ depth
+    np.testing.assert_array_equal(out[moved, 0], x[moved, 0])  # along the normal only
+    # through augment: targets untouched; off by default; reproducible from the rng
+    sample = {"position": np.stack([x, x + 0.001]), "velocity": np.zeros_like(x),
+              "density": np.full(len(x), 1000.0), "wall_position": wx, "wall_normal": wn,
+              "gravity": np.array([0.0, -9.81])}
+    a = augment(sample, np.random.default_rng(4), False, 0.0, r, 0.5, 2 * r)
+    b = augment(sample, np.random.default_rng(4), False, 0.0, r, 0.5, 2 * r)
+    np.testing.assert_array_equal(a["position"], b["position"])
+    np.testing.assert_array_equal(a["position"][1], sample["position"][1])
+    assert (a["position"][0][:, 1] < 0).any()
+    c = augment(sample, np.random.default_rng(4), False, 0.0)
+    np.testing.assert_array_equal(c["position"], sample["position"])

@@ -271,8 +271,9 @@ def test_every_model_recipe_parses_and_ends_with_its_shipped_config(path):
     assert all(_get(recorded, k) is None for k in diff), diff  # only keys it predates
     ck = read_checkpoint(shipped)  # [serve]: how the shipped file serves the weights
     assert ck.get("contact") == recipe.serve.get("contact")
-    if "wall_far_faces" in recipe.serve:
-        assert ck["config"]["wall_far_faces"] == recipe.serve["wall_far_faces"]
+    for key in ("wall_far_faces", "wall_fill_gaps"):
+        if key in recipe.serve:
+            assert ck["config"][key] == recipe.serve[key]
 
 
 def _get(d: dict, key: str):

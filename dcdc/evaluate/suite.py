@@ -215,14 +215,17 @@ def ratio_bin(r: float) -> str:
 def summarise(rows: list[dict]) -> dict:
     """One table row from per-run records (model rollouts or floor members): runs, runs to
     the end, and over the runs: final order right, COM within 5 %, layers like SPH
-    (fractions; a run that stopped early counts as a miss), median smallest purity ratio."""
+    (fractions; a run that stopped early counts as a miss), and the median smallest purity
+    ratio over the runs to the end (None if none got there: a rollout stopped after a few
+    steps is still as unmixed as its start)."""
     n = len(rows)
     if not n:
         return {"runs": 0}
 
     def frac(f):
         return round(float(np.mean([bool(r.get("stable")) and f(r) for r in rows])), 4)
-    pr = [r["purity_ratio_min"] for r in rows if r.get("purity_ratio_min") is not None]
+    pr = [r["purity_ratio_min"] for r in rows
+          if r.get("stable") and r.get("purity_ratio_min") is not None]
     return {"runs": n, "stable": int(sum(bool(r.get("stable")) for r in rows)),
             "order_ok": frac(lambda r: bool(r.get("order_ok"))),
             "com_within_5pct": frac(lambda r: r.get("com_height_error") is not None

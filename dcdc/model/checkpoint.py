@@ -78,15 +78,17 @@ def _write(path, payload: dict) -> Path:
 
 
 def serve_checkpoint(src, dst, wall_far_faces: bool | None = None,
-                     contact: bool | None = None) -> Path:
+                     contact: bool | None = None, wall_fill_gaps: bool | None = None) -> Path:
     """Copy checkpoint ``src`` to ``dst`` with how its weights are served changed: the wall
-    conv's view of thin walls' far faces (``NetConfig.wall_far_faces``, an input choice the
-    weights do not fix) and whether its rollouts apply the walls' contact by default
-    (``contact``); None keeps the stored value. The digest is recomputed."""
+    conv's view of thin walls' far faces (``NetConfig.wall_far_faces``) and of the gaps of
+    slanted lattice walls (``NetConfig.wall_fill_gaps``), input choices the weights do not
+    fix, and whether its rollouts apply the walls' contact by default (``contact``); None
+    keeps the stored value. The digest is recomputed."""
     ck = dict(read_checkpoint(src))
     ck["config"] = dict(ck["config"])
-    if wall_far_faces is not None:
-        ck["config"]["wall_far_faces"] = bool(wall_far_faces)
+    for key, val in (("wall_far_faces", wall_far_faces), ("wall_fill_gaps", wall_fill_gaps)):
+        if val is not None:
+            ck["config"][key] = bool(val)
     if contact is not None:
         ck["contact"] = bool(contact)
     return _write(dst, ck)

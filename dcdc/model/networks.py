@@ -37,6 +37,7 @@ from ..particles import DEFAULT_RADIUS, FRAME_DT, RHO_REF
 from .cconv import ConvGeometry, build_geometry
 from .layers import AntisymCConvLayer, CConvLayer, DensityCConvLayer
 from .modulation import DensityEmbedding, DensityPlan
+from .walls import FilledWalls
 
 
 @dataclass
@@ -69,6 +70,9 @@ class NetConfig:
     # False: not the wall particles a particle lies more than r behind that face away from its
     # nearest wall particle, facing_walls)
     wall_far_faces: bool = False
+    # wall particles added in the diagonal gaps of lattice-sampled slanted walls
+    # (dcdc.model.walls.fill_wall_gaps)
+    wall_fill_gaps: bool = False
 
     def __post_init__(self):
         self.validate()
@@ -161,6 +165,7 @@ class CorrectionNet(nn.Module):
         self.profile = False
         self.timings: dict[str, float] = {}
         self._wall_grids = WallGrids()  # the wall cell lists, kept while the walls stay put
+        self._filled_walls = FilledWalls()  # NetConfig.wall_fill_gaps, kept likewise
         self._search_caps = (128, 128)  # one-pass search bounds (fluid, wall): _next_capacity
         self.last_context: StepContext | None = None
 
@@ -196,6 +201,7 @@ class CorrectionNet(nn.Module):
         normals ``wall_n``, the wall particles a particle lies behind are left out of its
         wall neighbours (:func:`facing_walls`, ``NetConfig.wall_far_faces``)."""
         c = self.cfg
+        wall_x, wall_n, scenes = self.network_walls(wall_x, wall_n, scenes)
         xn = _numpy(x)
         wn = _numpy(wall_x) if wall_x is not None else np.zeros((0, self.dim))
         dtype = next(self.parameters()).dtype
@@ -233,6 +239,7 @@ class CorrectionNet(nn.Module):
         """
         if ctx is None:
             ctx = self.prepare(x, density, wall_x, scenes, wall_n)
+        wall_x, wall_n, scenes = self.network_walls(wall_x, wall_n, scenes)
         self.last_context = ctx  # e.g. the loss weights particles by their neighbour count
         p = next(self.parameters())
         dtype, dev = p.dtype, p.device
@@ -262,6 +269,19 @@ class CorrectionNet(nn.Module):
                         out = out + h
                 h = out
         return h * self.cfg.out_scale
+
+    def network_walls(self, wall_x, wall_n, scenes: "Scenes | None" = None):
+        """The wall particles the network sees: as given, or with the gaps of slanted
+        lattice walls filled (``NetConfig.wall_fill_gaps``, :func:`fill_wall_gaps`); the
+        scenes' wall offsets follow the added rows."""
+        if not self.cfg.wall_fill_gaps or wall_x is None or wall_n is None or len(wall_x) == 0:
+            return wall_x, wall_n, scenes
+        wx, wn, offs = self._filled_walls.get(_numpy(wall_x), _numpy(wall_n),
+                                              2 * self.cfg.particle_radius,
+                                              None if scenes is None else scenes.wall)
+        if scenes is not None:
+            scenes = Scenes(scenes.fluid, offs)
+        return wx, wn, scenes
 
     def _fluid(self, conv, f, ctx: StepContext):
         if isinstance(conv, DensityCConvLayer):

@@ -30,6 +30,11 @@ class DataConfig:
     # windows starts at a frame < early_frames (0 = uniform over all windows)
     early_fraction: float = 0.0
     early_frames: int = 10
+    # move this share of the particles beside a wall (nearest wall particle within 2 r) to a
+    # random depth in [0, wall_noise] behind it in the input, the target unchanged
+    # (sampler.push_into_walls; 0 = off)
+    wall_noise: float = 0.0  # [m]
+    wall_noise_fraction: float = 0.2
 
     def validate(self):
         check(bool(self.train), "data.train", "a dataset path", self.train)
@@ -39,6 +44,9 @@ class DataConfig:
         check(0 <= self.early_fraction <= 1, "data.early_fraction", "in [0, 1]",
               self.early_fraction)
         check(self.early_frames >= 1, "data.early_frames", ">= 1", self.early_frames)
+        check(self.wall_noise >= 0, "data.wall_noise", ">= 0", self.wall_noise)
+        check(0 <= self.wall_noise_fraction <= 1, "data.wall_noise_fraction", "in [0, 1]",
+              self.wall_noise_fraction)
 
 
 @dataclass
@@ -160,6 +168,9 @@ class LogConfig:
 
 
 SECTIONS = ("data", "model", "optim", "curriculum", "loss", "eval", "log")
+# NetConfig fields that say which wall particles the network sees: an input choice, not part
+# of the weights (a fine-tuning or a recipe's stage may change them)
+WALL_VIEW = ("wall_far_faces", "wall_fill_gaps")
 
 
 @dataclass

@@ -36,8 +36,8 @@ stage changes; ``[[dataset]]`` tables say which commands make the data the stage
 resumes from its newest checkpoint, so the same command, re-run after any interruption,
 finishes the recipe. The last stage's network is copied to ``RUN/model.pt``.
 An optional ``[serve]`` table says how ``RUN/model.pt`` serves those weights:
-``wall_far_faces`` (the wall conv's view of thin walls' far faces, ``NetConfig``) and
-``contact`` (whether its rollouts apply the walls' contact by default;
+``wall_far_faces`` and ``wall_fill_gaps`` (the wall conv's view of thin walls' far faces
+and of slanted walls' gaps, ``NetConfig``) and ``contact`` (whether its rollouts apply the walls' contact by default;
 :func:`dcdc.model.checkpoint.serve_checkpoint`).
 ``dcdc train RECIPE.toml --plan`` (:func:`plan_text`) prints the stages, the datasets with
 their commands and the estimated time, and trains nothing.
@@ -57,10 +57,10 @@ from pathlib import Path
 
 from ..configs import apply_overrides, load_toml
 from ..errors import DcdcError
-from .config import SECTIONS, TrainConfig
+from .config import SECTIONS, WALL_VIEW, TrainConfig
 
 RECIPE_KEYS = ("recipe", "dataset", "stage", "serve") + SECTIONS
-SERVE_FIELDS = ("wall_far_faces", "contact")
+SERVE_FIELDS = ("wall_far_faces", "wall_fill_gaps", "contact")
 RECIPE_FIELDS = ("name", "description")
 DATASET_FIELDS = ("path", "generate", "minutes", "note")
 STAGE_FIELDS = ("name", "steps", "minutes") + SECTIONS
@@ -284,7 +284,8 @@ def parse_recipe(d: dict, path) -> Recipe:
     first = None
     for i, stage in enumerate(recipe.stages):  # every stage's config is valid and
         net = {k: v for k, v in recipe.config(i, "RUN").to_dict()["model"].items()
-               if k != "init"}                   # every stage trains the same network
+               if k != "init" and k not in WALL_VIEW}  # every stage trains the same network
+                                                       # (which walls it sees may change)
         if first is None:
             first = net
         elif net != first:

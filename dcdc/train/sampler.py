@@ -9,7 +9,8 @@ one concatenated batch for a single forward pass.
   keeps its shard ``windows[rank::world]``.
 * Augmentation: in 3-D a random rotation about the gravity axis, in 2-D a
   random mirror across it (the only isometry of the plane that keeps gravity); optional
-  Gaussian noise on the input positions.
+  Gaussian noise on the input positions; optionally (:func:`push_into_walls`) a share of
+  the particles beside a wall moved behind it in the input, the target left as it is.
 * :func:`collate` concatenates the windows into one batch with
   :class:`~dcdc.model.networks.Scenes` offsets: the network's search runs scene by scene,
   so particles of different scenes never interact, and everything after it is one pass.
@@ -24,6 +25,7 @@ import torch
 from ..data.dataset import Dataset
 from ..errors import DcdcError
 from ..model.networks import Scenes
+from ..neighbors import nearest_edges, radius_search
 from ..particles import TIME_EPS, active_mask
 from .curriculum import allowed, max_density_ratio
 
@@ -41,6 +43,9 @@ def dataset_info(ds: Dataset, label: str) -> dict:
         vals[key] = got[0]
     vals["dim"] = int(vals["dim"])
     return vals
+
+
+WALL_NOISE_REACH = 2.0  # particle radii: the particles data.wall_noise may move (first row)
 
 
 class WindowSampler:
@@ -106,8 +111,10 @@ def load_window(ds: Dataset, traj: int, start: int, length: int) -> dict:
             "gravity": np.asarray(w["gravity"], np.float64)[:t.dim]}
 
 
-def augment(sample: dict, rng: np.random.Generator, rotate: bool, noise_std: float) -> dict:
-    """Rotate (3-D) / mirror (2-D) about the gravity axis; noise on the input positions."""
+def augment(sample: dict, rng: np.random.Generator, rotate: bool, noise_std: float,
+            wall_depth: float = 0.0, wall_fraction: float = 0.0, wall_reach: float = 0.0) -> dict:
+    """Rotate (3-D) / mirror (2-D) about the gravity axis; noise on the input positions;
+    with ``wall_depth`` > 0, :func:`push_into_walls` on the (noisy) input positions."""
     s = dict(sample)
     d = s["position"].shape[-1]
     g = s["gravity"]
@@ -118,7 +125,44 @@ def augment(sample: dict, rng: np.random.Generator, rotate: bool, noise_std: flo
     if noise_std > 0:
         s["position"] = s["position"].copy()
         s["position"][0] += rng.normal(scale=noise_std, size=s["position"][0].shape)
+    if wall_depth > 0 and wall_fraction > 0 and len(s["wall_position"]):
+        s["position"] = s["position"].copy()
+        s["position"][0] = push_into_walls(s["position"][0], s["wall_position"],
+                                           s["wall_normal"], rng, wall_depth, wall_fraction,
+                                           wall_reach)
     return s
+
+
+def push_into_walls(x: np.ndarray, wall_x: np.ndarray, wall_n: np.ndarray,
+                    rng: np.random.Generator, depth: float, fraction: float,
+                    reach: float) -> np.ndarray:
+    """Input positions with a share of the particles beside a wall moved behind it: each
+    particle whose nearest wall particle b lies within ``reach`` is, with probability
+    ``fraction``, moved along −n_b to u·``depth`` behind b's tangent plane (u ~ U(0, 1))::
+
+        x_i ← x_i − ((x_i − x_b)·n_b + u·depth) n_b
+
+    The window's targets stay the teacher's frames, so the network learns to put a particle
+    that has drifted into a wall back in front of it: the SPH data never holds one (the
+    teacher's contact keeps every particle out), and a network that never saw one lets a
+    slow drift into a wall go on (docs/models.md, "Generalisation suite"). Noise injection
+    aimed at the one state a rollout must not reach (Sanchez-Gonzalez et al. 2020 inject
+    noise for the same reason: the network sees its own errors' states in training)."""
+    nb = radius_search(x, reach, wall_x)
+    if nb.n_edges == 0:
+        return x
+    rec = nb.receivers()
+    off = x[rec] - wall_x[nb.index]
+    first = nearest_edges(rec, np.einsum("ij,ij->i", off, off))
+    i, b = rec[first].astype(np.int64), nb.index[first].astype(np.int64)
+    pick = rng.random(len(i)) < fraction
+    u = rng.random(len(i))
+    i, b, u = i[pick], b[pick], u[pick]
+    n = wall_n[b] / np.maximum(np.linalg.norm(wall_n[b], axis=1, keepdims=True), 1e-12)
+    s = np.einsum("ij,ij->i", x[i] - wall_x[b], n)
+    out = x.copy()
+    out[i] -= (s + u * depth)[:, None] * n
+    return out
 
 
 def _gravity_isometry(axis: np.ndarray, d: int, rng) -> np.ndarray:

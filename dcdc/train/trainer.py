@@ -41,9 +41,10 @@ from ..data.dataset import Dataset
 from ..errors import DcdcError
 from ..model.checkpoint import check_compatible, read_checkpoint, save_checkpoint
 from ..model.networks import build_network
-from .config import TrainConfig
+from .config import WALL_VIEW, TrainConfig
 from .loss import unrolled_loss
-from .sampler import WindowSampler, augment, collate, dataset_info, load_window
+from .sampler import (WALL_NOISE_REACH, WindowSampler, augment, collate, dataset_info,
+                      load_window)
 
 CKPT_DIR = "checkpoints"
 # keys whose change does not stop a --resume (longer runs, other logging; model.init only
@@ -294,10 +295,11 @@ class Trainer:
     def _initialise(self, init: str) -> None:
         """Fine-tuning (``model.init``): the weights of a checkpoint of the same network,
         with a fresh optimizer and this run's schedule. Which wall particles the network sees
-        (``wall_far_faces``) is this run's choice, not part of the weights."""
+        (``wall_far_faces``, ``wall_fill_gaps``: :data:`WALL_VIEW`) is this run's choice, not
+        part of the weights."""
         ck = read_checkpoint(init)
         mine, theirs = self.net.config(), ck["config"]
-        diff = sorted(k for k in (set(mine) | set(theirs)) - {"wall_far_faces"}
+        diff = sorted(k for k in (set(mine) | set(theirs)) - set(WALL_VIEW)
                       if mine.get(k) != theirs.get(k))
         if diff:
             k = diff[0]
@@ -338,7 +340,9 @@ class Trainer:
             traj, start = windows[k]
             rng = np.random.default_rng([cfg.optim.seed, step, k, 1])
             s = load_window(self.train_ds, traj, start, cfg.loss.unroll + 1)
-            samples.append(augment(s, rng, cfg.data.rotate, cfg.data.noise_std))
+            samples.append(augment(s, rng, cfg.data.rotate, cfg.data.noise_std,
+                                   cfg.data.wall_noise, cfg.data.wall_noise_fraction,
+                                   WALL_NOISE_REACH * self.net.cfg.particle_radius))
         return collate(samples, next(self.net.parameters()).dtype, self.device)
 
     def train_step(self, step: int, cap: float | None) -> tuple[float, list[float], int]:
