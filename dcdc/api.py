@@ -177,7 +177,7 @@ def rollout(model, system: ParticleSystem, steps: int, time: float = 0.0,
     ``system`` (advanced in place; e.g. ``scene.realize(dim=2)`` or a dataset frame,
     ``Trajectory.system(frame)``, at simulated ``time``), as ``dcdc simulate`` does: the
     walls' contact after each step where ``contact`` says (None: the model's own default,
-    :func:`dcdc.evaluate.rollout.uses_contact`; off for ``dcdc2d``), and a guard (``max_speed``
+    :func:`dcdc.evaluate.rollout.uses_contact`; off for ``dcdc2d`` and ``cconv2d``), and a guard (``max_speed``
     m/s, ``max_in_walls`` fraction) that ends the rollout early with its report in
     :attr:`Run.stopped`."""
     from .evaluate.rollout import Guard, NeuralSimulator, run

@@ -36,7 +36,7 @@ from .start import (check_start_frame, settle_frames, settle_with_sph, start_fro
 @click.option("--contact/--no-contact", default=CONTACT_DEFAULT,
               help="move particles that reach a wall's solid back to its surface after each "
                    "step (the SPH solver's wall contact); --no-contact: the network alone "
-                   "[default: the model's own: off for dcdc2d, on for the others]")
+                   "[default: the model's own: off for dcdc2d and cconv2d, on for the others]")
 @click.option("--device", default="cpu", show_default=True)
 @click.option("--max-particles", type=float, default=None, help="raise the scene's particle budget")
 @click.option("--settle", type=float, default=None,
