@@ -126,6 +126,19 @@ def test_serve_sets_how_the_final_network_is_served(tmp_path):
     assert same(net.state_dict(), weights(run / "second" / "model.pt"))
 
 
+def test_a_stage_may_see_the_walls_otherwise(tmp_path):
+    """Which wall particles the network sees is an input choice: a later stage may change
+    it (the shipped 2-D recipes' last stage fills the gaps of slanted walls)."""
+    extra = ("\n[[stage]]\nname = 'third'\nsteps = 1\n"
+             "model = { wall_far_faces = true, wall_fill_gaps = true }\n"
+             "\n[serve]\nwall_fill_gaps = true\n")
+    recipe = load_recipe(tiny_recipe(tmp_path, extra=extra))
+    last = recipe.config(len(recipe.stages) - 1, "RUN").model
+    assert last.wall_fill_gaps is True and last.wall_far_faces is True
+    assert recipe.config(0, "RUN").model.wall_fill_gaps is False
+    assert recipe.serve == {"wall_fill_gaps": True}
+
+
 def test_an_interrupted_recipe_resumes_and_skips_finished_stages(tmp_path, monkeypatch):
     recipe = load_recipe(tiny_recipe(tmp_path, second_steps=6))
     run = tmp_path / "run"
