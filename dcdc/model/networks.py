@@ -200,8 +200,12 @@ class CorrectionNet(nn.Module):
         searched on its own, so particles of different scenes never interact. With the wall
         normals ``wall_n``, the wall particles a particle lies behind are left out of its
         wall neighbours (:func:`facing_walls`, ``NetConfig.wall_far_faces``)."""
-        c = self.cfg
         wall_x, wall_n, scenes = self.network_walls(wall_x, wall_n, scenes)
+        return self._prepare(x, density, wall_x, scenes, wall_n)
+
+    def _prepare(self, x, density, wall_x, scenes, wall_n) -> StepContext:
+        """:meth:`prepare` for the walls the network sees (:meth:`network_walls` done)."""
+        c = self.cfg
         xn = _numpy(x)
         wn = _numpy(wall_x) if wall_x is not None else np.zeros((0, self.dim))
         dtype = next(self.parameters()).dtype
@@ -237,9 +241,9 @@ class CorrectionNet(nn.Module):
             ctx: a precomputed :meth:`prepare` result for these positions.
             scenes: where each scene of a concatenated batch starts (:class:`Scenes`).
         """
-        if ctx is None:
-            ctx = self.prepare(x, density, wall_x, scenes, wall_n)
         wall_x, wall_n, scenes = self.network_walls(wall_x, wall_n, scenes)
+        if ctx is None:
+            ctx = self._prepare(x, density, wall_x, scenes, wall_n)
         self.last_context = ctx  # e.g. the loss weights particles by their neighbour count
         p = next(self.parameters())
         dtype, dev = p.dtype, p.device

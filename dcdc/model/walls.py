@@ -101,6 +101,6 @@ class FilledWalls:
             ns.append(n)
             counts.append(len(x))
         offs = None if wall_offsets is None else np.concatenate([[0], np.cumsum(counts)])
-        self._out = (np.concatenate(xs) if xs else wall_x, np.concatenate(ns) if ns else wall_n, offs)
+        self._out = (np.concatenate(xs), np.concatenate(ns), offs)
         self._key = (key, np.array(wall_x, copy=True), np.array(wall_n, copy=True))
         return self._out
