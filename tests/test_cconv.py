@@ -109,6 +109,26 @@ def test_backends_agree_float32_and_bf16_close():
     assert (c - a).norm() / a.norm() < 2e-2
 
 
+def test_bf16_gemm_emulation_is_torchs_bf16_gemm(monkeypatch):
+    """Without bf16 instructions the bf16 GEMM is a float32 GEMM of the bf16 operands,
+    rounded to bf16: torch's own bf16 GEMM to within one bf16 step (summation order)."""
+    import dcdc.model.cconv as cc
+
+    g = torch.Generator().manual_seed(3)
+    a = torch.randn(64, 300, generator=g).to(torch.bfloat16)
+    b = torch.randn(300, 24, generator=g).to(torch.bfloat16)
+    ref = torch.mm(a, b).float()
+    monkeypatch.setattr(cc, "BF16_NATIVE", False)
+    emu = cc.bf16_mm(a, b)
+    assert emu.dtype == torch.bfloat16
+    ulp = ref.abs() * 2.0 ** -7  # one bf16 step at the result's size
+    assert ((emu.float() - ref).abs() <= ulp + 1e-6).all()
+    exact = a.double() @ b.double()  # and it is the rounded exact product
+    assert ((emu.double() - exact).abs() <= exact.abs() * 2.0 ** -8 + 1e-5).all()
+    out = torch.empty(64, 24, dtype=torch.bfloat16)
+    assert cc.bf16_mm(a, b, out=out) is out and torch.equal(out, emu)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("normalize", [False, True])
 def test_float32_geometry_is_the_rounded_float64_geometry(dim, normalize):

@@ -241,8 +241,15 @@ def test_simulate_dataset_writes_the_dataset_layout(ckpts, tmp_path, capsys):
     stats = json.loads(r.attrs["solver_stats"])
     assert stats["steps"] == 3 and len(stats["in_walls"]) == 3 and stats["stopped"] == ""
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp file left
+    assert r.attrs["gemm_precision"] == "float32"
     code, _, err = _cli(args, capsys)  # exists: refused without --overwrite
     assert code == 2 and err.startswith("error:") and "--overwrite" in err
+    # --bf16: the same rollout to bf16's precision (well below a millimetre in 3 steps)
+    assert _cli([*args, "--overwrite", "--bf16"], capsys)[0] == 0
+    b = Dataset(out)[traj.name]
+    assert b.attrs["gemm_precision"] == "bf16"
+    dev = np.abs(b.position[-1] - r.position[-1]).max()
+    assert 0 < dev < 1e-3
 
 
 def test_simulate_scene_guard_stop_is_written_and_reported(ckpts, tmp_path, capsys):

@@ -73,6 +73,26 @@ def test_score(built, tmp_path, capsys):
     assert row["contact"] is False and "curves" not in row
 
 
+def test_score_bf16_and_a_displaced_member(built, tmp_path):
+    """``bf16`` and ``perturb`` reach the rollouts: each moves the untrained network's final
+    positions a little (not zero, far below a particle), and the JSON says which ran."""
+    import torch
+
+    from dcdc.model.checkpoint import save_checkpoint
+    from dcdc.model.networks import build_network
+    d, index = built
+    torch.manual_seed(0)
+    ck = save_checkpoint(tmp_path / "untrained.pt", build_network("dcdc", 2))
+    runs = {k: S.score([ck], d, contact=False, progress=False, **kw)
+            for k, kw in {"fp32": {}, "bf16": {"bf16": True}, "member": {"perturb": 1e-6}}.items()}
+    assert runs["bf16"]["bf16"] and not runs["fp32"]["bf16"] and runs["member"]["perturb_m"] == 1e-6
+    name = next(iter(index["scenes"]))
+    com = {k: r["scenes"][name]["models"]["untrained"]["com_height_pred"] for k, r in runs.items()}
+    for k in ("bf16", "member"):
+        dev = max(abs(a - b) for a, b in zip(com[k], com["fp32"]))
+        assert 0 < dev < 1e-3, (k, dev)
+
+
 def test_score_needs_a_suite(tmp_path, capsys):
     code, out, err = dcdc(capsys, "suite", "score", "--model", "x.pt", "--suite", tmp_path)
     assert code == 2 and err.startswith("error:")

@@ -38,6 +38,9 @@ from .start import (check_start_frame, settle_frames, settle_with_sph, start_fro
                    "step (the SPH solver's wall contact); --no-contact: the network alone "
                    "[default: the model's own: off for dcdc2d and cconv2d, on for the others]")
 @click.option("--device", default="cpu", show_default=True)
+@click.option("--bf16", is_flag=True,
+              help="the convolutions' GEMMs in bf16 (CPU; faster only where the CPU has bf16 "
+                   "instructions, e.g. AMX; docs/speed.md)")
 @click.option("--max-particles", type=float, default=None, help="raise the scene's particle budget")
 @click.option("--settle", type=float, default=None,
               help="with --scene: run the scene's SPH solver for the first SECONDS (e.g. 0.2) "
@@ -45,7 +48,7 @@ from .start import (check_start_frame, settle_frames, settle_with_sph, start_fro
 @click.option("--out", required=True, type=click.Path(dir_okay=False), help="rollout .h5 file")
 @click.option("--overwrite", is_flag=True, help="replace an existing --out file")
 def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, start_frame, steps,
-                     max_speed, max_in_walls, contact, device, max_particles, settle, out,
+                     max_speed, max_in_walls, contact, device, bf16, max_particles, settle, out,
                      overwrite):
     """Roll out a learned model and write the trajectory (dataset HDF5 layout)."""
     from tqdm import tqdm
@@ -71,9 +74,15 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
                         "use --start-frame)")
     if settle is not None and not settle > 0:
         raise DcdcError(f"--settle must be > 0 seconds (got {settle:g})")
+    if bf16 and device != "cpu":
+        raise DcdcError("--bf16 is for the CPU kernels; leave it out with --device "
+                        f"{device}")
     out = check_file(out, overwrite)
     guard = Guard(max_speed=max_speed, max_in_walls=max_in_walls)
     model, ck = load_checkpoint(model_path, device=device)
+    if bf16:
+        import torch
+        model.set_backend("auto", torch.bfloat16)
     t_start = 0.0
     if settle is not None:  # a bad value fails before any work
         if scene.endswith(".json"):
@@ -105,7 +114,7 @@ def simulate_command(model_path, scene, dim, resolution, dataset, trajectory, st
             "solver": f"dcdc.neural ({model.name})",
             "solver_settings": json.dumps(model.config(), sort_keys=True),
             "model": str(model_path), "model_digest": str(ck.get("digest", "")),
-            "wall_contact": int(sim.uses_contact),
+            "wall_contact": int(sim.uses_contact), "gemm_precision": "bf16" if bf16 else "float32",
             "dcdc_version": version, "git_commit": commit,
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "wall_time_s": time.time() - t0}

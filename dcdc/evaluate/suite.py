@@ -299,10 +299,16 @@ def load_index(suite) -> dict:
 
 
 def score(models, suite, contact: bool | None = CONTACT_DEFAULT, max_speed: float = 50.0,
-          max_in_walls: float = 0.01, progress: bool = True) -> dict:
+          max_in_walls: float = 0.01, progress: bool = True, bf16: bool = False,
+          perturb: float = 0.0) -> dict:
     """Every model on every suite scene (a rollout over the whole trajectory from its
     stored start; ``contact`` None: each model's own default); returns {"rows": table rows,
-    "scenes": per-scene rows, "contact": {label: used}, ...}."""
+    "scenes": per-scene rows, "contact": {label: used}, ...}.
+
+    ``bf16``: the convolutions' GEMMs in bf16 (:func:`dcdc.model.cconv.bf16_mm`);
+    ``perturb`` > 0: every start displaced by up to that many metres
+    (:func:`~dcdc.evaluate.scores.perturbed_start`, seed 1), a member of the network's own
+    ensemble — how far the measures move for a change far below the network's own error."""
     from ..data import interrupt
     from ..data.dataset import Dataset
     from ..model.checkpoint import check_compatible, load_checkpoint
@@ -317,6 +323,10 @@ def score(models, suite, contact: bool | None = CONTACT_DEFAULT, max_speed: floa
         raise DcdcError(f"{suite}: the suite holds no finished scenes")
     trajs = {n: ds[n] for n in names}
     nets = [load_checkpoint(m)[0] for m in models]
+    if bf16:
+        import torch
+        for net in nets:
+            net.set_backend("auto", torch.bfloat16)
     labels = _labels(models)
     for net, m in zip(nets, models):
         for t in trajs.values():
@@ -330,7 +340,8 @@ def score(models, suite, contact: bool | None = CONTACT_DEFAULT, max_speed: floa
         for n, t in trajs.items():
             for label, net in zip(labels, nets):
                 bar.set_postfix_str(f"{n} / {label}")
-                row = score_trajectory(net, t, guard=guard, contact=contact, one_two_step=False)
+                row = score_trajectory(net, t, guard=guard, contact=contact, one_two_step=False,
+                                       perturb=perturb, seed=1)
                 row.pop("curves", None)
                 per_model[label][n] = row
                 interrupt.check()
@@ -338,7 +349,7 @@ def score(models, suite, contact: bool | None = CONTACT_DEFAULT, max_speed: floa
     rows = table_rows(index, per_model)
     return {"suite": str(suite), "dim": index["dim"], "models": dict(zip(labels, map(str, models))),
             "contact": {lab: uses_contact(net, contact) for lab, net in zip(labels, nets)},
-            "com_tolerance": COM_TOL, "rows": rows,
+            "com_tolerance": COM_TOL, "rows": rows, "bf16": bool(bf16), "perturb_m": float(perturb),
             "scenes": {n: {**index["scenes"][n], "models": {lab: per_model[lab][n] for lab in labels}}
                        for n in names}}
 
@@ -376,13 +387,19 @@ def build_command(dim, out, scenes, members, workers, duration, retry_failed, no
 @click.option("--contact/--no-contact", default=CONTACT_DEFAULT,
               help="the walls' contact in the rollouts [default: each model's own; dcdc "
                    "simulate --help]")
+@click.option("--bf16", is_flag=True,
+              help="the convolutions' GEMMs in bf16 (emulated in float32 where the CPU has "
+                   "no bf16 instructions: same numbers, not faster)")
+@click.option("--perturb", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+              help="displace every start by up to this many metres (a member of the "
+                   "network's ensemble)")
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None,
               help="write every row (and every scene's scores) here")
 @click.option("--no-progress", is_flag=True)
-def score_command(models, suite, contact, json_path, no_progress):
+def score_command(models, suite, contact, bf16, perturb, json_path, no_progress):
     """Score models on the suite against SPH and the SPH ensemble floor."""
     from ..outputs import write_text
-    res = score(models, suite, contact, progress=not no_progress)
+    res = score(models, suite, contact, progress=not no_progress, bf16=bf16, perturb=perturb)
     used = ", ".join(f"{lab} {'on' if on else 'off'}" for lab, on in res["contact"].items())
     click.echo(f"suite {suite}: {len(res['scenes'])} {res['dim']}-D scenes; wall contact: "
                f"{used}; fractions of runs; 'to end' = runs that reach "

@@ -61,6 +61,15 @@ from .fused import _spread_row
 
 DEFAULT_CPU_BACKEND = "fused" if _fused.AVAILABLE else "numba"  # what "auto" means on a CPU
 CHUNK_BYTES = 8 << 20  # working-buffer size per chunk of rows (fits the L2/L3 caches well)
+# bf16 GEMMs in hardware (AVX-512 BF16 / AMX, through oneDNN); elsewhere they are emulated
+def _bf16_native() -> bool:
+    try:
+        return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    except (AttributeError, RuntimeError):
+        return False
+
+
+BF16_NATIVE = _bf16_native()
 
 
 # --------------------------------------------------------------------------- geometry kernels
@@ -457,7 +466,7 @@ def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
         for r0 in range(0, R, rows):
             r1 = min(R, r0 + rows)
             _spread_bf16(geom.row_splits, geom.src, geom.cells, w, Fn, r0, r1, bitsn)
-            torch.mm(bits[: r1 - r0].view(torch.bfloat16), Wf, out=res[: r1 - r0])
+            bf16_mm(bits[: r1 - r0].view(torch.bfloat16), Wf, out=res[: r1 - r0])
             out[r0:r1] = res[: r1 - r0]
         return out
     buf = _buffer(rows, ncell * cin, F.dtype)
@@ -468,14 +477,34 @@ def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
         A = buf[: r1 - r0]
         if gemm_dtype is None:
             torch.mm(A, Wf, out=out[r0:r1])
+        elif gemm_dtype == torch.bfloat16:
+            out[r0:r1] = bf16_mm(A.to(gemm_dtype), Wf).to(F.dtype)
         else:
             out[r0:r1] = torch.mm(A.to(gemm_dtype), Wf).to(F.dtype)
+    return out
+
+
+def bf16_mm(a: torch.Tensor, b: torch.Tensor, out: torch.Tensor | None = None) -> torch.Tensor:
+    """``a @ b`` for bf16 ``a``, ``b``: products accumulated in float32, the result rounded to
+    bf16 (what oneDNN's bf16 GEMM returns). Where the CPU has no bf16 instructions
+    (:data:`BF16_NATIVE` False) torch's bf16 GEMM is ~30× slower than float32, so the same
+    numbers are computed as a float32 GEMM of the bf16 operands (exact products, float32
+    sums; only the order of summation may differ): the bf16 rollouts can be validated on any
+    CPU, and run faster only where the hardware has bf16."""
+    if BF16_NATIVE:
+        return torch.mm(a, b, out=out)
+    res = torch.mm(a.float(), b.float()).to(torch.bfloat16)
+    if out is None:
+        return res
+    out.copy_(res)
     return out
 
 
 def _mm(a, b, gemm_dtype):
     if gemm_dtype is None:
         return a @ b
+    if gemm_dtype == torch.bfloat16:
+        return bf16_mm(a.to(gemm_dtype), b.to(gemm_dtype)).to(a.dtype)
     return (a.to(gemm_dtype) @ b.to(gemm_dtype)).to(a.dtype)
 
 
