@@ -374,15 +374,20 @@ def layers_like(purity, purity_ref, height_dist, depth: float,
 
 
 # ---------------------------------------------------------------------------- walls
+FACING_COS = 0.866  # wall particles whose normals lie within 30° count as one face
+
+
 def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
     """Boolean mask [N]: fluid particles inside a wall — behind a wall particle b within a
     spacing by more than a quarter spacing, ``(x − x_b)·n_b < −spacing/4`` (normals point
     into the fluid), where b faces the same way as the particle's nearest wall particle
-    (normals within 60°).
+    (normals within 30°, :data:`FACING_COS`).
 
     The facing condition keeps convex corners (a glass's rim, an hourglass's neck) apart: a
     particle in front of the nearest face can lie behind the plane of a particle on the other
-    face. Closeness alone is not a penetration: the SPH data keeps its first row at the wall
+    face, also where the faces meet at a shallow angle (the hourglass's funnel meets its
+    vertical neck at 38°: a particle a radius in front of the funnel, just above the neck's
+    top, lies r/2 behind the plane of the neck's first wall particle). Closeness alone is not a penetration: the SPH data keeps its first row at the wall
     particles (on the suite's glasses and hourglasses up to 1 % of the fluid comes within a
     quarter spacing of one, in front of it) and never behind them.
 
@@ -409,7 +414,7 @@ def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
     nearest_n[recv[first]] = wall_n[nb.index[first]]
     n = wall_n[nb.index]
     side = np.einsum("ij,ij->i", off, n)
-    facing = np.einsum("ij,ij->i", n, nearest_n[recv]) > 0.5
+    facing = np.einsum("ij,ij->i", n, nearest_n[recv]) > FACING_COS
     bad = np.unique(recv[facing & (side < -0.25 * spacing)])
     out[np.flatnonzero(finite)[bad]] = True
     return out

@@ -200,6 +200,23 @@ def test_convex_corner_is_not_a_penetration():
     assert M.inside_walls(through, wall, normals, 0.05).all()
 
 
+def test_shallow_convex_edge_is_not_a_penetration():
+    """An hourglass's funnel (normals 38° from the neck's) meeting its vertical neck: a
+    particle a radius in front of the funnel, just above the neck's top particle, lies more
+    than r/2 behind that particle's plane and is still outside; one behind the funnel's face
+    is inside."""
+    neck = np.array([[0.0, -k * 0.05] for k in range(5)])
+    funnel = np.array([[-0.05, 0.05], [-0.05, 0.1], [-0.1, 0.1], [-0.1, 0.15], [-0.15, 0.15]])
+    nf = np.array([0.78, 0.62]) / np.hypot(0.78, 0.62)
+    wall = np.concatenate([neck, funnel])
+    normals = np.concatenate([np.tile([1.0, 0.0], (5, 1)), np.tile(nf, (5, 1))])
+    above = np.array([[-0.014, 0.04]])  # 0.022 in front of the funnel, 0.014 behind x = 0
+    assert (above - neck[0]) @ [1.0, 0.0] < -0.0125 and (above - funnel[0]) @ nf > 0.02
+    assert not M.inside_walls(above, wall, normals, 0.05).any()
+    behind = np.array([[-0.06, 0.03]])  # 0.02 behind the funnel's face
+    assert M.inside_walls(behind, wall, normals, 0.05).all()
+
+
 def _basin(r=0.025):
     """A 2-D V-shaped basin of wall particles (slopes ±0.5) with fluid rows filling it to
     6 rows above its lowest point; returns (fluid x, wall x, row index of each particle)."""
