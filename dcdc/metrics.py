@@ -393,7 +393,7 @@ def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
 
     ``grid``: a :class:`~dcdc.neighbors.CellGrid` of ``wall_x`` built with :func:`wall_grid`
     (walls do not move: a rollout builds it once instead of every step); same result."""
-    from .neighbors import nearest_edges
+    from .neighbors import nearest_values
 
     x = np.asarray(x, dtype=np.float64)
     out = np.zeros(len(x), dtype=bool)
@@ -409,10 +409,8 @@ def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
     recv = nb.receivers()
     off = xf[recv] - wall_x[nb.index]
     dist = np.linalg.norm(off, axis=1)
-    first = nearest_edges(recv, dist)
-    nearest_n = np.zeros_like(xf)
-    nearest_n[recv[first]] = wall_n[nb.index[first]]
     n = wall_n[nb.index]
+    nearest_n = nearest_values(recv, dist, n, len(xf))
     side = np.einsum("ij,ij->i", off, n)
     facing = np.einsum("ij,ij->i", n, nearest_n[recv]) > FACING_COS
     bad = np.unique(recv[facing & (side < -0.25 * spacing)])

@@ -49,6 +49,17 @@ def nearest_edges(receivers: np.ndarray, dist: np.ndarray) -> np.ndarray:
     return order[keep]
 
 
+def nearest_values(receivers: np.ndarray, dist: np.ndarray, values: np.ndarray,
+                   n: int) -> np.ndarray:
+    """[n, ...]: for each receiver the per-edge ``values`` row of its shortest edge (zeros
+    for a receiver without edges), e.g. the normal of each particle's nearest wall
+    particle."""
+    first = nearest_edges(receivers, dist)
+    out = np.zeros((n,) + values.shape[1:], dtype=values.dtype)
+    out[receivers[first]] = values[first]
+    return out
+
+
 def _grid(lo: np.ndarray, hi: np.ndarray, radius: float):
     """Cell edge and padded grid shape covering [lo, hi] with cells of edge >= radius."""
     extent = np.maximum(hi - lo, radius)

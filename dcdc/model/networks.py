@@ -31,7 +31,7 @@ import torch
 from torch import nn
 
 from ..errors import DcdcError
-from ..neighbors import CellGrid, Neighbors, nearest_edges, radius_search
+from ..neighbors import CellGrid, Neighbors, nearest_values, radius_search
 from ..configs import check, check_types
 from ..particles import DEFAULT_RADIUS, FRAME_DT, RHO_REF
 from .cconv import ConvGeometry, build_geometry
@@ -328,9 +328,7 @@ def facing_walls(nb: Neighbors, x: np.ndarray, wall_x: np.ndarray, wall_n: np.nd
     behind_b = side < -behind
     if not behind_b.any():
         return nb
-    first = nearest_edges(recv, np.einsum("ij,ij->i", off, off))
-    nearest_n = np.zeros_like(x)
-    nearest_n[recv[first]] = n[first]
+    nearest_n = nearest_values(recv, np.einsum("ij,ij->i", off, off), n, len(x))
     keep = ~behind_b | (np.einsum("ij,ij->i", n, nearest_n[recv]) > 0.5)
     if keep.all():
         return nb
