@@ -4,8 +4,9 @@ step") measured here, in one run, with the speed-up it argues for.
 For each showcase (cocktail, hourglass, canyon; 2-D with the shipped 2-D model, 3-D when a
 3-D model is given) the same initial state is advanced
 
-* by the learned simulator (:class:`~dcdc.evaluate.rollout.NeuralSimulator`, wall contact
-  on, neighbour searches included): ``--seconds`` of simulated time in steps of the model's
+* by the learned simulator (:class:`~dcdc.evaluate.rollout.NeuralSimulator`, with the
+  model's own wall-contact default, as ``dcdc simulate`` runs it; neighbour searches
+  included): ``--seconds`` of simulated time in steps of the model's
   Δt (0.02 s); the first step (kernel compilation) is not timed; ms per step is the median;
 * by the SPH solver that made the training data (:class:`dcdc.sph.Simulator` with the
   scene's ``[solver]`` settings, CFL-adaptive substeps): the same simulated time after one
@@ -35,13 +36,14 @@ def neural_cost(model, system, seconds: float, device: str = "cpu") -> dict:
     from .rollout import Guard, NeuralSimulator
 
     sim = NeuralSimulator(model, system, guard=Guard(max_in_walls=1.0, check_domain=False),
-                          device=device, contact=True)
+                          device=device, contact=None)
     n = max(2, int(round(seconds / sim.dt)) + 1)
     for _ in range(n):
         sim.step()
     ms = statistics.median(sim.step_ms[1:])
     return {"steps": n - 1, "dt": sim.dt, "ms_per_step": ms,
-            "s_per_simulated_s": ms / 1e3 / sim.dt, "contacts": int(sim.totals["contacts"])}
+            "s_per_simulated_s": ms / 1e3 / sim.dt, "contact": bool(sim.uses_contact),
+            "contacts": int(sim.totals["contacts"])}
 
 
 def sph_cost(system, solver: dict, seconds: float, frame_dt: float) -> dict:
@@ -88,7 +90,8 @@ def format_table(rows: list[dict]) -> str:
         paper = r.get("paper_s_per_step")
         p = f"{1e3 * paper['ours']:.1f} / {1e3 * paper['imm_mixture']:.1f}" if paper else "-"
         lines.append(
-            f"| {r['scene']} {r['dim']}-D ({r['model']}) | {r['fluid_particles']} + "
+            f"| {r['scene']} {r['dim']}-D ({r['model']}, "
+            f"{'contact' if nn.get('contact', True) else 'alone'}) | {r['fluid_particles']} + "
             f"{r['wall_particles']} | {nn['ms_per_step']:.1f} | {1e3 * sph['mean_substep_s']:.2f} ms "
             f"| {sph['ms_per_substep']:.1f} | {nn['s_per_simulated_s']:.2f} "
             f"| {sph['s_per_simulated_s']:.2f} | {r['speedup']:.1f}× | {p} |")
