@@ -387,8 +387,8 @@ def inside_walls(x, wall_x, wall_n, spacing: float, grid=None) -> np.ndarray:
     particle in front of the nearest face can lie behind the plane of a particle on the other
     face, also where the faces meet at a shallow angle (the hourglass's funnel meets its
     vertical neck at 38°: a particle a radius in front of the funnel, just above the neck's
-    top, lies r/2 behind the plane of the neck's first wall particle). Closeness alone is not a penetration: the SPH data keeps its first row at the wall
-    particles (on the suite's glasses and hourglasses up to 1 % of the fluid comes within a
+    top, lies r/2 behind the plane of the neck's first wall particle). Closeness alone is
+    not a penetration: the SPH data keeps its first row at the wall particles (on the suite's glasses and hourglasses up to 1 % of the fluid comes within a
     quarter spacing of one, in front of it) and never behind them.
 
     ``grid``: a :class:`~dcdc.neighbors.CellGrid` of ``wall_x`` built with :func:`wall_grid`

@@ -61,8 +61,11 @@ from .fused import _spread_row
 
 DEFAULT_CPU_BACKEND = "fused" if _fused.AVAILABLE else "numba"  # what "auto" means on a CPU
 CHUNK_BYTES = 8 << 20  # working-buffer size per chunk of rows (fits the L2/L3 caches well)
-# bf16 GEMMs in hardware (AVX-512 BF16 / AMX, through oneDNN); elsewhere they are emulated
+
+
 def _bf16_native() -> bool:
+    """Whether torch's oneDNN has bf16 GEMMs in hardware (AVX-512 BF16 / AMX); elsewhere
+    :func:`bf16_mm` emulates them."""
     try:
         return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
     except (AttributeError, RuntimeError):
@@ -477,10 +480,8 @@ def _forward_numba(F: torch.Tensor, W: torch.Tensor, geom: ConvGeometry, gemm_dt
         A = buf[: r1 - r0]
         if gemm_dtype is None:
             torch.mm(A, Wf, out=out[r0:r1])
-        elif gemm_dtype == torch.bfloat16:
-            out[r0:r1] = bf16_mm(A.to(gemm_dtype), Wf).to(F.dtype)
         else:
-            out[r0:r1] = torch.mm(A.to(gemm_dtype), Wf).to(F.dtype)
+            out[r0:r1] = _mm(A, Wf, gemm_dtype)
     return out
 
 
